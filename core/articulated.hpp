@@ -1,0 +1,91 @@
+// Articulated-body inertias in the world frame (RBDA §7.2-7.3, Table 7.1, pass 2).
+//
+// Contract: kin holds world-frame S and I. For each body i, leaves first:
+//   U_i = IA_i S_i,  D_i = S_iᵀ U_i (k×k),  IA_λ(i) += IA_i − U_i D_i⁻¹ U_iᵀ
+// Stored per configuration for the impulse sweeps of solvers/abi: U, D⁻¹ and U·D⁻¹ (the
+// paper's §5.2 saving: computed once, not per column). Cost Θ(nb); no allocation.
+#pragma once
+
+#include <cmath>
+#include <vector>
+
+#include "core/kinematics.hpp"
+
+namespace minv {
+
+template <class T>
+struct Articulated {
+  std::vector<Mat6<T>> IA;  // articulated-body inertias
+  Mat6N<T> U;               // U = IA T, column per DOF
+  Mat6N<T> UDinv;           // U D⁻¹, column per DOF
+  std::vector<MatK<T>> Dinv;  // D⁻¹ per body, k×k
+
+  explicit Articulated(const Model& m)
+      : IA(m.nb()), U(Mat6N<T>::Zero(6, m.nv())), UDinv(Mat6N<T>::Zero(6, m.nv())), Dinv(m.nb()) {
+    for (int i = 0; i < m.nb(); ++i) Dinv[i] = MatK<T>::Zero(m.nvOf(i), m.nvOf(i));
+  }
+};
+
+// Inverse of a small symmetric positive-definite k×k matrix (k ≤ 6) by Cholesky, D = L Lᵀ.
+template <class T>
+void spdInverse(const MatK<T>& D, MatK<T>& Dinv) {
+  using std::sqrt;
+  const int k = static_cast<int>(D.rows());
+  if (k == 1) {
+    Dinv(0, 0) = T(1) / D(0, 0);
+    return;
+  }
+  // Factor D = L Lᵀ; keep 1/L_jj.
+  MatK<T> L = MatK<T>::Zero(k, k);
+  VecK<T> rdiag(k);
+  for (int j = 0; j < k; ++j) {
+    T s = D(j, j);
+    for (int p = 0; p < j; ++p) s -= L(j, p) * L(j, p);
+    L(j, j) = sqrt(s);
+    rdiag(j) = T(1) / L(j, j);
+    for (int i = j + 1; i < k; ++i) {
+      T t = D(i, j);
+      for (int p = 0; p < j; ++p) t -= L(i, p) * L(j, p);
+      L(i, j) = t * rdiag(j);
+    }
+  }
+  // Linv = L⁻¹ by forward substitution, then D⁻¹ = L⁻ᵀ L⁻¹.
+  MatK<T> Linv = MatK<T>::Zero(k, k);
+  for (int j = 0; j < k; ++j) {
+    Linv(j, j) = rdiag(j);
+    for (int i = j + 1; i < k; ++i) {
+      T t = T(0);
+      for (int p = j; p < i; ++p) t -= L(i, p) * Linv(p, j);
+      Linv(i, j) = t * rdiag(i);
+    }
+  }
+  for (int i = 0; i < k; ++i)
+    for (int j = 0; j <= i; ++j) {
+      T t = T(0);
+      for (int p = i; p < k; ++p) t += Linv(p, i) * Linv(p, j);
+      Dinv(i, j) = t;
+      Dinv(j, i) = t;
+    }
+}
+
+// Stage "articulated inertias": IA, U, D⁻¹, U D⁻¹ for every body, leaves first.
+template <class T>
+void articulatedInertias(const Model& model, const Kinematics<T>& kin, Articulated<T>& art) {
+  for (int i = 0; i < model.nb(); ++i) art.IA[i] = kin.I[i];
+  for (int i = model.nb() - 1; i >= 0; --i) {
+    const int v = model.vIdx(i), k = model.nvOf(i);
+    // U_i = IA_i S_i, D_i = S_iᵀ U_i, D_i⁻¹, U_i D_i⁻¹.
+    art.U.middleCols(v, k).noalias() = art.IA[i] * kin.S.middleCols(v, k);
+    const MatK<T> D = kin.S.middleCols(v, k).transpose() * art.U.middleCols(v, k);
+    spdInverse<T>(D, art.Dinv[i]);
+    art.UDinv.middleCols(v, k).noalias() = art.U.middleCols(v, k) * art.Dinv[i];
+    // IA_λ(i) += IA_i − U_i D_i⁻¹ U_iᵀ.
+    const int p = model.parent(i);
+    if (p >= 0) {
+      art.IA[p] += art.IA[i];
+      art.IA[p].noalias() -= art.UDinv.middleCols(v, k) * art.U.middleCols(v, k).transpose();
+    }
+  }
+}
+
+}  // namespace minv

@@ -1,0 +1,48 @@
+// Composite-Rigid-Body Algorithm in the world frame (RBDA §6.2, Table 6.2; Walker & Orin
+// method 3), the paper's Table 2 set-up.
+//
+// Contract: kin holds world-frame S and I (core/kinematics.hpp). Writes the full symmetric
+// nv×nv joint-space inertia matrix M (entries off the branch-induced pattern are zero).
+// Stages: composite inertias Ic_i = I_i + Σ_children Ic_j; the vectors F = Ic_i S_i; M's
+// elements M_ji = S_jᵀ F for every ancestor j of i. Cost Θ(nb) + Θ(Σ depth) for 1-DOF joints.
+#pragma once
+
+#include <vector>
+
+#include "core/kinematics.hpp"
+
+namespace minv {
+
+// Stage "composite inertias": Ic_i = I_i + Σ_{children j} Ic_j, leaves first.
+template <class T>
+void compositeInertias(const Model& model, const Kinematics<T>& kin, std::vector<Mat6<T>>& Ic) {
+  for (int i = 0; i < model.nb(); ++i) Ic[i] = kin.I[i];
+  for (int i = model.nb() - 1; i >= 0; --i)
+    if (model.parent(i) >= 0) Ic[model.parent(i)] += Ic[i];
+}
+
+// Stages "Ic·s vectors" and "elements of M": M_ii = S_iᵀ F, M_ji = S_jᵀ F up the ancestors.
+template <class T>
+void crbaMassMatrix(const Model& model, const Kinematics<T>& kin, const std::vector<Mat6<T>>& Ic,
+                    MatX<T>& M) {
+  M.setZero();
+  for (int i = 0; i < model.nb(); ++i) {
+    const int vi = model.vIdx(i), ki = model.nvOf(i);
+    const Mat6X<T> F = Ic[i] * kin.S.middleCols(vi, ki);
+    M.block(vi, vi, ki, ki).noalias() = kin.S.middleCols(vi, ki).transpose() * F;
+    for (int j = model.parent(i); j >= 0; j = model.parent(j)) {
+      const int vj = model.vIdx(j), kj = model.nvOf(j);
+      M.block(vj, vi, kj, ki).noalias() = kin.S.middleCols(vj, kj).transpose() * F;
+      M.block(vi, vj, ki, kj) = M.block(vj, vi, kj, ki).transpose();
+    }
+  }
+}
+
+// Both stages; Ic is scratch of size nb.
+template <class T>
+void crba(const Model& model, const Kinematics<T>& kin, std::vector<Mat6<T>>& Ic, MatX<T>& M) {
+  compositeInertias(model, kin, Ic);
+  crbaMassMatrix(model, kin, Ic, M);
+}
+
+}  // namespace minv

@@ -1,0 +1,122 @@
+// Kinematics at a configuration q, in the world ("global") frame, as the paper computes it.
+//
+// Stage "spatial axes": body poses ⁰X_i and each joint's motion subspace S_i (6×k, one column
+// per DOF) in world coordinates. Stage "isolated inertias": each body's spatial inertia I_i in
+// world coordinates, about the world origin. Parametrisation of q: see core/model.hpp.
+// Cost: Θ(nb); no allocation after the Kinematics object is built.
+#pragma once
+
+#include <cmath>
+#include <vector>
+
+#include "core/model.hpp"
+#include "core/spatial.hpp"
+
+namespace minv {
+
+template <class T>
+using VecX = Eigen::Matrix<T, Eigen::Dynamic, 1>;
+template <class T>
+using MatX = Eigen::Matrix<T, Eigen::Dynamic, Eigen::Dynamic>;
+template <class T>
+using Mat6N = Eigen::Matrix<T, 6, Eigen::Dynamic>;
+
+template <class T>
+struct Kinematics {
+  std::vector<Pose<T>> X;  // body i's pose in the world
+  Mat6N<T> S;              // motion subspaces in world coordinates, column k for DOF k
+  std::vector<Mat6<T>> I;  // body spatial inertias in world coordinates
+
+  explicit Kinematics(const Model& m) : X(m.nb()), S(Mat6N<T>::Zero(6, m.nv())), I(m.nb()) {}
+};
+
+// Rotation of a unit quaternion (w, x, y, z); normalises first.
+template <class T>
+Mat3<T> quatToRotation(T w, T x, T y, T z) {
+  using std::sqrt;
+  const T inv = T(1) / sqrt(w * w + x * x + y * y + z * z);
+  w = w * inv, x = x * inv, y = y * inv, z = z * inv;
+  Mat3<T> R;
+  R << T(1) - T(2) * (y * y + z * z), T(2) * (x * y - w * z), T(2) * (x * z + w * y),
+      T(2) * (x * y + w * z), T(1) - T(2) * (x * x + z * z), T(2) * (y * z - w * x),
+      T(2) * (x * z - w * y), T(2) * (y * z + w * x), T(1) - T(2) * (x * x + y * y);
+  return R;
+}
+
+// Pose of the joint's motion: body frame relative to the joint frame.
+template <class T>
+Pose<T> jointPose(const Joint& j, const VecX<T>& q, int o) {
+  using std::cos;
+  using std::sin;
+  Pose<T> J;
+  const Vec3<T> a = j.axis.cast<T>();
+  switch (j.type) {
+    case JointType::Revolute: {
+      // Rodrigues: R = c·1 + s·ã + (1 − c)·a aᵀ.
+      const T c = cos(q(o)), s = sin(q(o));
+      J.R = c * Mat3<T>::Identity() + s * skew<T>(a) + (T(1) - c) * (a * a.transpose());
+      break;
+    }
+    case JointType::Prismatic: J.p = a * q(o); break;
+    case JointType::Spherical: J.R = quatToRotation<T>(q(o), q(o + 1), q(o + 2), q(o + 3)); break;
+    case JointType::Floating:
+      J.p = q.template segment<3>(o);
+      J.R = quatToRotation<T>(q(o + 3), q(o + 4), q(o + 5), q(o + 6));
+      break;
+  }
+  return J;
+}
+
+// Stage "spatial axes": poses ⁰X_i and world-frame motion subspaces S_i.
+template <class T>
+void forwardKinematics(const Model& model, const VecX<T>& q, Kinematics<T>& kin) {
+  for (int i = 0; i < model.nb(); ++i) {
+    const Joint& j = model.joint(i);
+    const int p = model.parent(i), v = model.vIdx(i);
+    // ⁰X_i = ⁰X_λ(i) · placement · X_J(q_i)
+    const Pose<T> place = castPose<T>(j.placement);
+    kin.X[i] = (p < 0 ? place : kin.X[p] * place) * jointPose<T>(j, q, model.qIdx(i));
+    const Pose<T>& X = kin.X[i];
+    // S_i: the joint's body-frame subspace carried to world coordinates.
+    switch (j.type) {
+      case JointType::Revolute: {
+        const Vec3<T> w = X.R * j.axis.cast<T>();
+        kin.S.col(v) << w, X.p.cross(w);
+        break;
+      }
+      case JointType::Prismatic:
+        kin.S.col(v) << Vec3<T>::Zero(), X.R * j.axis.cast<T>();
+        break;
+      case JointType::Spherical:
+        for (int c = 0; c < 3; ++c) kin.S.col(v + c) << X.R.col(c), X.p.cross(X.R.col(c));
+        break;
+      case JointType::Floating:
+        for (int c = 0; c < 3; ++c) {
+          kin.S.col(v + c) << X.R.col(c), X.p.cross(X.R.col(c));
+          kin.S.col(v + 3 + c) << Vec3<T>::Zero(), X.R.col(c);
+        }
+        break;
+    }
+  }
+}
+
+// Stage "isolated inertias": I_i = mcI(m, ⁰c_i, R Ī Rᵀ) about the world origin.
+template <class T>
+void worldInertias(const Model& model, Kinematics<T>& kin) {
+  for (int i = 0; i < model.nb(); ++i) {
+    const Body& b = model.body(i);
+    const Pose<T>& X = kin.X[i];
+    const Vec3<T> c = X.p + X.R * b.com.cast<T>();
+    const Mat3<T> Ic = X.R * b.inertia.cast<T>() * X.R.transpose();
+    kin.I[i] = mcI<T>(T(b.mass), c, Ic);
+  }
+}
+
+// Both stages.
+template <class T>
+void computeKinematics(const Model& model, const VecX<T>& q, Kinematics<T>& kin) {
+  forwardKinematics(model, q, kin);
+  worldInertias(model, kin);
+}
+
+}  // namespace minv

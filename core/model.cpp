@@ -1,0 +1,186 @@
+#include "core/model.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+
+namespace minv {
+
+int jointNv(JointType t) {
+  switch (t) {
+    case JointType::Revolute:
+    case JointType::Prismatic: return 1;
+    case JointType::Spherical: return 3;
+    case JointType::Floating: return 6;
+  }
+  return 0;
+}
+
+int jointNq(JointType t) {
+  switch (t) {
+    case JointType::Revolute:
+    case JointType::Prismatic: return 1;
+    case JointType::Spherical: return 4;
+    case JointType::Floating: return 7;
+  }
+  return 0;
+}
+
+const char* jointTypeName(JointType t) {
+  switch (t) {
+    case JointType::Revolute: return "revolute";
+    case JointType::Prismatic: return "prismatic";
+    case JointType::Spherical: return "spherical";
+    case JointType::Floating: return "floating";
+  }
+  return "?";
+}
+
+JointType jointTypeFromName(const std::string& name) {
+  for (JointType t : {JointType::Revolute, JointType::Prismatic, JointType::Spherical,
+                      JointType::Floating})
+    if (name == jointTypeName(t)) return t;
+  throw ModelError("unknown joint type '" + name +
+                   "' (expected revolute, prismatic, spherical or floating)");
+}
+
+namespace {
+
+bool finite(const auto& m) { return m.allFinite(); }
+
+std::string where(int i, const std::string& name) {
+  return "body " + std::to_string(i) + (name.empty() ? "" : " ('" + name + "')");
+}
+
+void checkBody(int i, const Body& b) {
+  const std::string at = where(i, b.name);
+  if (!std::isfinite(b.mass) || b.mass <= 0)
+    throw ModelError(at + ": mass must be positive and finite, got " + std::to_string(b.mass));
+  if (!finite(b.com)) throw ModelError(at + ": centre of mass is not finite");
+  if (!finite(b.inertia)) throw ModelError(at + ": rotational inertia is not finite");
+  const Eigen::Matrix3d& J = b.inertia;
+  const double scale = J.cwiseAbs().maxCoeff();
+  if ((J - J.transpose()).cwiseAbs().maxCoeff() > 1e-9 * std::max(scale, 1e-300))
+    throw ModelError(at + ": rotational inertia is not symmetric");
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(J);
+  const Eigen::Vector3d e = es.eigenvalues();  // ascending
+  if (!(e(0) > 0))
+    throw ModelError(at + ": rotational inertia is not positive definite (smallest eigenvalue " +
+                     std::to_string(e(0)) + ")");
+  if (e(0) + e(1) < e(2) * (1 - 1e-9))
+    throw ModelError(at + ": rotational inertia breaks the triangle inequality (principal " +
+                     "moments " + std::to_string(e(0)) + ", " + std::to_string(e(1)) + ", " +
+                     std::to_string(e(2)) + ")");
+}
+
+void checkJoint(int i, Joint& j, int parent) {
+  const std::string at = "joint of " + where(i, j.name);
+  if (j.type == JointType::Revolute || j.type == JointType::Prismatic) {
+    if (!finite(j.axis)) throw ModelError(at + ": joint axis is not finite");
+    const double n = j.axis.norm();
+    if (n < 1e-12) throw ModelError(at + ": joint axis is zero");
+    j.axis /= n;
+  }
+  if (j.type == JointType::Floating && parent != -1)
+    throw ModelError(at + ": a floating joint must attach a root body to the world");
+  if (!finite(j.placement.R) || !finite(j.placement.p))
+    throw ModelError(at + ": joint placement is not finite");
+  const Eigen::Matrix3d& R = j.placement.R;
+  if ((R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > 1e-9 ||
+      R.determinant() < 0)
+    throw ModelError(at + ": joint placement rotation is not a rotation matrix");
+}
+
+}  // namespace
+
+Model Model::create(std::vector<int> parent, std::vector<Joint> joints, std::vector<Body> bodies) {
+  const int nb = static_cast<int>(parent.size());
+  if (nb == 0) throw ModelError("model has no bodies (n = 0)");
+  if (static_cast<int>(joints.size()) != nb || static_cast<int>(bodies.size()) != nb)
+    throw ModelError("model arrays disagree: " + std::to_string(nb) + " parents, " +
+                     std::to_string(joints.size()) + " joints, " + std::to_string(bodies.size()) +
+                     " bodies");
+  Model m;
+  m.q_idx_.resize(nb);
+  m.v_idx_.resize(nb);
+  m.depth_.resize(nb);
+  for (int i = 0; i < nb; ++i) {
+    // The parent must come before its child: parent(i) < i (RBDA's regular numbering).
+    if (parent[i] < -1 || parent[i] >= i)
+      throw ModelError(where(i, bodies[i].name) + ": parent index " + std::to_string(parent[i]) +
+                       " must be in [-1, " + std::to_string(i - 1) + "] (parent before child)");
+    checkJoint(i, joints[i], parent[i]);
+    checkBody(i, bodies[i]);
+    m.q_idx_[i] = m.nq_;
+    m.v_idx_[i] = m.nv_;
+    m.depth_[i] = parent[i] < 0 ? 1 : m.depth_[parent[i]] + 1;
+    const int k = jointNv(joints[i].type);
+    // Expand λ over DOFs: the first DOF hangs off the parent's last DOF, the rest chain.
+    for (int j = 0; j < k; ++j) {
+      int p = j > 0 ? m.nv_ + j - 1 : -1;
+      if (j == 0 && parent[i] >= 0)
+        p = m.v_idx_[parent[i]] + jointNv(joints[parent[i]].type) - 1;
+      m.dof_parent_.push_back(p);
+      m.dof_body_.push_back(i);
+    }
+    m.nq_ += jointNq(joints[i].type);
+    m.nv_ += k;
+  }
+  for (int i = 1; i < nb; ++i)
+    if (joints[i].type == JointType::Floating && parent[i] == -1)
+      throw ModelError("joint of " + where(i, joints[i].name) +
+                       ": only body 0 may carry a floating joint");
+  m.parent_ = std::move(parent);
+  m.joints_ = std::move(joints);
+  m.bodies_ = std::move(bodies);
+  return m;
+}
+
+int Model::maxDepth() const { return *std::max_element(depth_.begin(), depth_.end()); }
+
+std::vector<std::string> Model::dofNames() const {
+  static const char* sph[] = {"wx", "wy", "wz"};
+  static const char* flo[] = {"wx", "wy", "wz", "vx", "vy", "vz"};
+  std::vector<std::string> names;
+  for (int i = 0; i < nb(); ++i) {
+    const Joint& j = joints_[i];
+    const std::string base = j.name.empty() ? "joint" + std::to_string(i) : j.name;
+    switch (j.type) {
+      case JointType::Spherical:
+        for (const char* s : sph) names.push_back(base + "_" + s);
+        break;
+      case JointType::Floating:
+        for (const char* s : flo) names.push_back(base + "_" + s);
+        break;
+      default: names.push_back(base);
+    }
+  }
+  return names;
+}
+
+Eigen::VectorXd Model::neutral() const {
+  Eigen::VectorXd q = Eigen::VectorXd::Zero(nq_);
+  for (int i = 0; i < nb(); ++i) {
+    if (joints_[i].type == JointType::Spherical) q(q_idx_[i]) = 1;
+    if (joints_[i].type == JointType::Floating) q(q_idx_[i] + 3) = 1;
+  }
+  return q;
+}
+
+void Model::checkConfiguration(const Eigen::VectorXd& q) const {
+  if (q.size() != nq_)
+    throw ModelError("configuration has " + std::to_string(q.size()) + " entries, model needs " +
+                     std::to_string(nq_));
+  for (int k = 0; k < nq_; ++k)
+    if (!std::isfinite(q(k)))
+      throw ModelError("configuration entry q[" + std::to_string(k) + "] is not finite");
+  for (int i = 0; i < nb(); ++i) {
+    const JointType t = joints_[i].type;
+    if (t != JointType::Spherical && t != JointType::Floating) continue;
+    const int o = q_idx_[i] + (t == JointType::Floating ? 3 : 0);
+    if (q.segment<4>(o).norm() < 1e-12)
+      throw ModelError("configuration of " + where(i, joints_[i].name) + ": zero quaternion");
+  }
+}
+
+}  // namespace minv

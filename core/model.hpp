@@ -1,0 +1,93 @@
+// The kinematic tree: an immutable description of bodies, joints and their parent array.
+//
+// Bodies are numbered 0 … nb−1 with parent(i) < i and parent −1 for a body attached to the
+// world (RBDA §4.1.2, 0-based). Body i's joint connects parent(i) to i. Joint types:
+//   revolute, prismatic  1 DOF, q = angle / displacement along `axis` (joint frame)
+//   spherical            3 DOF, q = unit quaternion (w, x, y, z) of the joint rotation,
+//                        velocity = angular velocity in the child (body) frame
+//   floating             6 DOF, only on a root body; q = (p_x, p_y, p_z, w, x, y, z): the body
+//                        origin in world and its orientation; velocity = the body's spatial
+//                        velocity [ω; v] expressed in the body frame (RBDA §4.5, "in body
+//                        coordinates"), so M's 6×6 base block is the tree's composite inertia
+//                        in the base frame.
+// Body i's frame is its joint frame after the joint motion; `placement` puts the joint frame
+// in the parent body's frame (or in the world for a root).
+// Velocity DOFs are numbered body by body; dofParent() is the DOF parent array of
+// Featherstone's expandLambda: within a multi-DOF joint each DOF's parent is the previous one.
+#pragma once
+
+#include <Eigen/Core>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "core/spatial.hpp"
+
+namespace minv {
+
+// Every rejected model, file or configuration throws this, with a message naming the place.
+struct ModelError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+enum class JointType { Revolute, Prismatic, Spherical, Floating };
+
+int jointNv(JointType t);
+int jointNq(JointType t);
+const char* jointTypeName(JointType t);
+JointType jointTypeFromName(const std::string& name);  // throws ModelError
+
+struct Joint {
+  std::string name;
+  JointType type = JointType::Revolute;
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  // unit; used by revolute and prismatic
+  Pose<double> placement;                            // joint frame in the parent body frame
+};
+
+struct Body {
+  std::string name;
+  double mass = 1.0;
+  Eigen::Vector3d com = Eigen::Vector3d::Zero();           // in the body frame
+  Eigen::Matrix3d inertia = Eigen::Matrix3d::Identity();  // about the com, body axes
+};
+
+class Model {
+ public:
+  // Validates and builds; throws ModelError naming the first problem found.
+  static Model create(std::vector<int> parent, std::vector<Joint> joints, std::vector<Body> bodies);
+
+  int nb() const { return static_cast<int>(parent_.size()); }
+  int nq() const { return nq_; }
+  int nv() const { return nv_; }
+  bool floatingBase() const { return nb() > 0 && joints_[0].type == JointType::Floating; }
+
+  int parent(int i) const { return parent_[i]; }
+  const std::vector<int>& parents() const { return parent_; }
+  const Joint& joint(int i) const { return joints_[i]; }
+  const Body& body(int i) const { return bodies_[i]; }
+  int qIdx(int i) const { return q_idx_[i]; }
+  int vIdx(int i) const { return v_idx_[i]; }
+  int nvOf(int i) const { return jointNv(joints_[i].type); }
+
+  // DOF parent array (expandLambda) and the body each DOF belongs to.
+  const std::vector<int>& dofParent() const { return dof_parent_; }
+  int dofBody(int k) const { return dof_body_[k]; }
+  std::vector<std::string> dofNames() const;
+  // Depth of each body (a root has depth 1) and the tree's maximum depth.
+  int depth(int i) const { return depth_[i]; }
+  int maxDepth() const;
+
+  // The neutral configuration (zero angles, identity quaternions).
+  Eigen::VectorXd neutral() const;
+  // Throws ModelError if q has the wrong size, a non-finite entry or a zero quaternion.
+  void checkConfiguration(const Eigen::VectorXd& q) const;
+
+ private:
+  std::vector<int> parent_;
+  std::vector<Joint> joints_;
+  std::vector<Body> bodies_;
+  std::vector<int> q_idx_, v_idx_, depth_, dof_parent_, dof_body_;
+  int nq_ = 0, nv_ = 0;
+};
+
+}  // namespace minv

@@ -1,0 +1,23 @@
+#include "solvers/abi.hpp"
+
+namespace minv {
+
+void AbiSolver::prepare(const Model& model) {
+  model_ = &model;
+  kin_ = std::make_unique<Kinematics<double>>(model);
+  art_ = std::make_unique<Articulated<double>>(model);
+  ws_ = std::make_unique<AbiWorkspace<double>>(model);
+}
+
+void AbiSolver::configure(const Eigen::VectorXd& q) {
+  computeKinematics<double>(*model_, q, *kin_);
+  articulatedInertias<double>(*model_, *kin_, *art_);
+}
+
+void AbiSolver::inverse(Eigen::MatrixXd& Minv) { abiInverse<double>(*model_, *kin_, *art_, *ws_, Minv); }
+
+void AbiSolver::solve(const Eigen::MatrixXd& R, Eigen::MatrixXd& X) {
+  abiSolve<double>(*model_, *kin_, *art_, *ws_, R, X);
+}
+
+}  // namespace minv

@@ -1,0 +1,20 @@
+// `lapack`: CRBA, then LAPACK's dense Cholesky through LAPACKE (linked to OpenBLAS):
+// dpotrf (M = L Lᵀ), then dpotri for M⁻¹ or dpotrs for M⁻¹R. The paper's baseline.
+// Cost: n³/3 + O(n²) flops to factor (LAWN 41), 2n³/3 more for the inverse, 2n²m to solve.
+#pragma once
+
+#include "solvers/crba_solver.hpp"
+
+namespace minv {
+
+class LapackSolver final : public CrbaSolver {
+ public:
+  void inverse(Eigen::MatrixXd& Minv) override;
+  void solve(const Eigen::MatrixXd& R, Eigen::MatrixXd& X) override;
+
+ private:
+  void allocate(const Model&) override {}
+  void factor() override;  // in place: M_'s lower triangle becomes L
+};
+
+}  // namespace minv

@@ -1,0 +1,47 @@
+// The one interface every solver implements, and the one registry every test, experiment and
+// plot loops over. A new solver is one adapter (a class below) plus one line in registry.cpp;
+// the conformance suite (tests/conformance_test.cpp) then checks it with no new test code.
+//
+// Life cycle: prepare(model) once per tree (all allocation happens here), configure(q) once
+// per configuration (kinematics plus whatever the method needs before a right-hand side,
+// e.g. CRBA + factorization, or articulated-body inertias), then any number of inverse() and
+// solve() calls, which do not allocate. Outputs are sized by the caller.
+#pragma once
+
+#include <Eigen/Core>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/model.hpp"
+
+namespace minv {
+
+class Solver {
+ public:
+  virtual ~Solver() = default;
+  // Allocate for this tree; the model must outlive the solver.
+  virtual void prepare(const Model& model) = 0;
+  // Per configuration q (size model.nq()).
+  virtual void configure(const Eigen::VectorXd& q) = 0;
+  // Minv (nv×nv) = M⁻¹, dense and symmetric.
+  virtual void inverse(Eigen::MatrixXd& Minv) = 0;
+  // X (nv×m) = M⁻¹ R for R (nv×m).
+  virtual void solve(const Eigen::MatrixXd& R, Eigen::MatrixXd& X) = 0;
+};
+
+struct SolverEntry {
+  std::string name;
+  std::string summary;  // one line for `minv solvers`
+  std::function<std::unique_ptr<Solver>()> make;
+};
+
+// Every registered solver, in a fixed order.
+const std::vector<SolverEntry>& solverRegistry();
+// The names of the registry, in order.
+std::vector<std::string> solverNames();
+// Throws std::invalid_argument("unknown solver 'x' (known: …)") for an unknown name.
+std::unique_ptr<Solver> makeSolver(const std::string& name);
+
+}  // namespace minv
