@@ -75,15 +75,15 @@ void articulatedInertias(const Model& model, const Kinematics<T>& kin, Articulat
   for (int i = model.nb() - 1; i >= 0; --i) {
     const int v = model.vIdx(i), k = model.nvOf(i);
     // U_i = IA_i S_i, D_i = S_iᵀ U_i, D_i⁻¹, U_i D_i⁻¹.
-    art.U.middleCols(v, k).noalias() = art.IA[i] * kin.S.middleCols(v, k);
-    const MatK<T> D = kin.S.middleCols(v, k).transpose() * art.U.middleCols(v, k);
+    art.U.middleCols(v, k).noalias() = art.IA[i].lazyProduct(kin.S.middleCols(v, k));
+    const MatK<T> D = kin.S.middleCols(v, k).transpose().lazyProduct(art.U.middleCols(v, k));
     spdInverse<T>(D, art.Dinv[i]);
-    art.UDinv.middleCols(v, k).noalias() = art.U.middleCols(v, k) * art.Dinv[i];
+    art.UDinv.middleCols(v, k).noalias() = art.U.middleCols(v, k).lazyProduct(art.Dinv[i]);
     // IA_λ(i) += IA_i − U_i D_i⁻¹ U_iᵀ.
     const int p = model.parent(i);
     if (p >= 0) {
       art.IA[p] += art.IA[i];
-      art.IA[p].noalias() -= art.UDinv.middleCols(v, k) * art.U.middleCols(v, k).transpose();
+      art.IA[p].noalias() -= art.UDinv.middleCols(v, k).lazyProduct(art.U.middleCols(v, k).transpose());
     }
   }
 }

@@ -9,6 +9,7 @@
 
 #include <vector>
 
+#include "core/counting.hpp"
 #include "core/kinematics.hpp"
 
 namespace minv {
@@ -22,19 +23,21 @@ void compositeInertias(const Model& model, const Kinematics<T>& kin, std::vector
 }
 
 // Stages "Ic·s vectors" and "elements of M": M_ii = S_iᵀ F, M_ji = S_jᵀ F up the ancestors.
-template <class T>
+template <class T, class Mark = NoMark>
 void crbaMassMatrix(const Model& model, const Kinematics<T>& kin, const std::vector<Mat6<T>>& Ic,
-                    MatX<T>& M) {
+                    MatX<T>& M, Mark&& mark = {}) {
   M.setZero();
   for (int i = 0; i < model.nb(); ++i) {
     const int vi = model.vIdx(i), ki = model.nvOf(i);
-    const Mat6X<T> F = Ic[i] * kin.S.middleCols(vi, ki);
-    M.block(vi, vi, ki, ki).noalias() = kin.S.middleCols(vi, ki).transpose() * F;
+    const Mat6X<T> F = Ic[i].lazyProduct(kin.S.middleCols(vi, ki));
+    mark("Ic s vectors");
+    M.block(vi, vi, ki, ki).noalias() = kin.S.middleCols(vi, ki).transpose().lazyProduct(F);
     for (int j = model.parent(i); j >= 0; j = model.parent(j)) {
       const int vj = model.vIdx(j), kj = model.nvOf(j);
-      M.block(vj, vi, kj, ki).noalias() = kin.S.middleCols(vj, kj).transpose() * F;
+      M.block(vj, vi, kj, ki).noalias() = kin.S.middleCols(vj, kj).transpose().lazyProduct(F);
       M.block(vi, vj, ki, kj) = M.block(vj, vi, kj, ki).transpose();
     }
+    mark("elements of M");
   }
 }
 

@@ -2,6 +2,30 @@
 
 namespace minv {
 
+std::vector<StageCount> AbiSolver::countStages(const Model& model, const Eigen::VectorXd& q,
+                                               int m) {
+  flopReset();
+  StageCounter mark;
+  Kinematics<Counted> kin(model);
+  Articulated<Counted> art(model);
+  AbiWorkspace<Counted> ws(model);
+  const VecX<Counted> qc = q.cast<Counted>();
+  forwardKinematics<Counted>(model, qc, kin);
+  mark("spatial axes");
+  worldInertias<Counted>(model, kin);
+  mark("isolated inertias");
+  articulatedInertias<Counted>(model, kin, art);
+  mark("articulated inertias");
+  MatX<Counted> X(model.nv(), m > 0 ? m : model.nv());
+  if (m == 0) {
+    abiInverse<Counted>(model, kin, art, ws, X, mark);
+  } else {
+    const MatX<Counted> R = MatX<Counted>::Identity(model.nv(), m);
+    abiSolve<Counted>(model, kin, art, ws, R, X, mark);
+  }
+  return stageCounts(mark);
+}
+
 void AbiSolver::prepare(const Model& model) {
   model_ = &model;
   kin_ = std::make_unique<Kinematics<double>>(model);

@@ -17,6 +17,7 @@
 #pragma once
 
 #include "core/articulated.hpp"
+#include "core/counting.hpp"
 #include "core/kinematics.hpp"
 #include "solvers/solver.hpp"
 
@@ -50,22 +51,22 @@ void abiForwardSweep(const Model& model, const Kinematics<T>& kin, const Articul
       else
         ws.dv.col(i) = kin.S.col(v) * qd;
     } else {
-      VecK<T> qd = art.Dinv[i] * ws.u.segment(v, k);
-      if (p >= 0) qd.noalias() -= art.UDinv.middleCols(v, k).transpose() * ws.dv.col(p);
+      VecK<T> qd = art.Dinv[i].lazyProduct(ws.u.segment(v, k));
+      if (p >= 0) qd.noalias() -= art.UDinv.middleCols(v, k).transpose().lazyProduct(ws.dv.col(p));
       out.segment(v, k) = qd;
       if (p >= 0)
         ws.dv.col(i) = ws.dv.col(p);
       else
         ws.dv.col(i).setZero();
-      ws.dv.col(i).noalias() += kin.S.middleCols(v, k) * qd;
+      ws.dv.col(i).noalias() += kin.S.middleCols(v, k).lazyProduct(qd);
     }
   }
 }
 
 // Stages "impulse propagation" and "velocity updates" for all columns: Minv = M⁻¹.
-template <class T>
+template <class T, class Mark = NoMark>
 void abiInverse(const Model& model, const Kinematics<T>& kin, const Articulated<T>& art,
-                AbiWorkspace<T>& ws, MatX<T>& Minv) {
+                AbiWorkspace<T>& ws, MatX<T>& Minv, Mark&& mark = {}) {
   for (int c = 0; c < model.nv(); ++c) {
     // Backward: the unit impulse e_c enters at its body b; only b's ancestors carry Y (§5.2).
     const int b = model.dofBody(c);
@@ -77,13 +78,15 @@ void abiInverse(const Model& model, const Kinematics<T>& kin, const Articulated<
         ws.u.segment(v, k).setZero();
         ws.u(c) = T(1);
       } else {
-        ws.u.segment(v, k).noalias() = -(kin.S.middleCols(v, k).transpose() * Y);
+        ws.u.segment(v, k).noalias() = -(kin.S.middleCols(v, k).transpose().lazyProduct(Y));
       }
       // Y_λ(i) = Y_i + U_i D_i⁻¹ u_i
-      Y.noalias() += art.UDinv.middleCols(v, k) * ws.u.segment(v, k);
+      Y.noalias() += art.UDinv.middleCols(v, k).lazyProduct(ws.u.segment(v, k));
     }
+    mark("impulse propagation");
     // Forward: every body's velocity change.
     abiForwardSweep(model, kin, art, ws, Minv.col(c));
+    mark("velocity updates");
     // Clear u on the path for the next column.
     for (int i = b; i >= 0; i = model.parent(i)) ws.u.segment(model.vIdx(i), model.nvOf(i)).setZero();
   }
@@ -92,29 +95,34 @@ void abiInverse(const Model& model, const Kinematics<T>& kin, const Articulated<
 }
 
 // M⁻¹R column by column, Θ(nb) each: the full backward sweep, then the forward sweep.
-template <class T>
+template <class T, class Mark = NoMark>
 void abiSolve(const Model& model, const Kinematics<T>& kin, const Articulated<T>& art,
-              AbiWorkspace<T>& ws, const MatX<T>& R, MatX<T>& X) {
+              AbiWorkspace<T>& ws, const MatX<T>& R, MatX<T>& X, Mark&& mark = {}) {
   for (int c = 0; c < R.cols(); ++c) {
     ws.Y.setZero();
     // Backward: u_i = r_i − S_iᵀ Y_i; Y_λ(i) += Y_i + U_i D_i⁻¹ u_i.
     for (int i = model.nb() - 1; i >= 0; --i) {
       const int v = model.vIdx(i), k = model.nvOf(i), p = model.parent(i);
       ws.u.segment(v, k) = R.col(c).segment(v, k);
-      ws.u.segment(v, k).noalias() -= kin.S.middleCols(v, k).transpose() * ws.Y.col(i);
+      ws.u.segment(v, k).noalias() -= kin.S.middleCols(v, k).transpose().lazyProduct(ws.Y.col(i));
       if (p >= 0) {
         ws.Y.col(p) += ws.Y.col(i);
-        ws.Y.col(p).noalias() += art.UDinv.middleCols(v, k) * ws.u.segment(v, k);
+        ws.Y.col(p).noalias() += art.UDinv.middleCols(v, k).lazyProduct(ws.u.segment(v, k));
       }
     }
+    mark("impulse propagation");
     // Forward: velocity changes.
     abiForwardSweep(model, kin, art, ws, X.col(c));
+    mark("velocity updates");
   }
   ws.u.setZero();
 }
 
 class AbiSolver final : public Solver {
  public:
+  // Every stage of Table 1 on the counting scalar.
+  static std::vector<StageCount> countStages(const Model& model, const Eigen::VectorXd& q, int m);
+
   void prepare(const Model& model) override;
   void configure(const Eigen::VectorXd& q) override;
   void inverse(Eigen::MatrixXd& Minv) override;

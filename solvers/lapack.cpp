@@ -15,6 +15,29 @@ void check(lapack_int info, const char* routine) {
 }
 }  // namespace
 
+std::vector<StageCount> LapackSolver::countStages(const Model& model, const Eigen::VectorXd& q,
+                                                  int m) {
+  flopReset();
+  StageCounter mark;
+  MatX<Counted> H(model.nv(), model.nv());
+  countCrbaFront(model, q, H, mark);
+  std::vector<StageCount> out = stageCounts(mark);
+  // LAWN 41: POTRF n³/6 + n²/2 + n/3 mults, n³/6 − n/6 adds; POTRI n³/3 + n² + 2n/3 mults,
+  // n³/3 − n²/2 + n/6 adds; POTRS m·n(n+1) mults, m·n(n−1) adds.
+  const std::uint64_t n = model.nv();
+  FlopCounts potrf{(n * n * n + 3 * n * n + 2 * n) / 6, (n * n * n - n) / 6, 0, 0, 0, 0};
+  out.push_back({"factorization", potrf, true});
+  if (m == 0) {
+    FlopCounts potri{(n * n * n + 3 * n * n + 2 * n) / 3, (2 * n * n * n - 3 * n * n + n) / 6, 0,
+                     0, 0, 0};
+    out.push_back({"inverse from factor", potri, true});
+  } else {
+    FlopCounts potrs{m * n * (n + 1), m * n * (n - 1), 0, 0, 0, 0};
+    out.push_back({"back-substitution", potrs, true});
+  }
+  return out;
+}
+
 void LapackSolver::factor() {
   // M = L Lᵀ, in place in the lower triangle.
   const lapack_int n = static_cast<lapack_int>(M_.rows());

@@ -9,6 +9,10 @@ namespace minv {
 
 class LapackSolver final : public CrbaSolver {
  public:
+  // CRBA counted on the counting scalar; dpotrf, dpotri and dpotrs by their documented counts
+  // (LAWN 41, which books divisions as multiplications and square roots apart).
+  static std::vector<StageCount> countStages(const Model& model, const Eigen::VectorXd& q, int m);
+
   void inverse(Eigen::MatrixXd& Minv) override;
   void solve(const Eigen::MatrixXd& R, Eigen::MatrixXd& X) override;
 

@@ -67,6 +67,14 @@ void ltdlInverse(const std::vector<int>& lambda, const MatX<T>& H, MatX<T>& Minv
 
 class LtdlSolver final : public CrbaSolver {
  public:
+  static std::vector<StageCount> countStages(const Model& model, const Eigen::VectorXd& q, int m) {
+    const std::vector<int>& lambda = model.dofParent();
+    return countCholeskyPipeline(
+        model, q, m, [&](MatX<Counted>& H) { ltdlFactor<Counted>(lambda, H); },
+        [&](const MatX<Counted>& H, MatX<Counted>& X) { ltdlInverse<Counted>(lambda, H, X); },
+        [&](const MatX<Counted>& H, auto&& x) { ltdlSolve<Counted>(lambda, H, x); });
+  }
+
   void inverse(Eigen::MatrixXd& Minv) override {
     ltdlInverse<double>(model_->dofParent(), M_, Minv);
   }

@@ -71,6 +71,14 @@ void ltlInverse(const std::vector<int>& lambda, const MatX<T>& H, MatX<T>& Minv)
 
 class LtlSolver final : public CrbaSolver {
  public:
+  static std::vector<StageCount> countStages(const Model& model, const Eigen::VectorXd& q, int m) {
+    const std::vector<int>& lambda = model.dofParent();
+    return countCholeskyPipeline(
+        model, q, m, [&](MatX<Counted>& H) { ltlFactor<Counted>(lambda, H); },
+        [&](const MatX<Counted>& H, MatX<Counted>& X) { ltlInverse<Counted>(lambda, H, X); },
+        [&](const MatX<Counted>& H, auto&& x) { ltlSolve<Counted>(lambda, H, x); });
+  }
+
   void inverse(Eigen::MatrixXd& Minv) override { ltlInverse<double>(model_->dofParent(), M_, Minv); }
   void solve(const Eigen::MatrixXd& R, Eigen::MatrixXd& X) override {
     X = R;

@@ -57,6 +57,13 @@ void naiveCholeskyInverse(const MatX<T>& L, MatX<T>& Minv) {
 
 class NaiveSolver final : public CrbaSolver {
  public:
+  static std::vector<StageCount> countStages(const Model& model, const Eigen::VectorXd& q, int m) {
+    return countCholeskyPipeline(
+        model, q, m, [](MatX<Counted>& H) { naiveCholesky<Counted>(H); },
+        [](const MatX<Counted>& H, MatX<Counted>& X) { naiveCholeskyInverse<Counted>(H, X); },
+        [](const MatX<Counted>& H, auto&& x) { naiveCholeskySolve<Counted>(H, x); });
+  }
+
   void inverse(Eigen::MatrixXd& Minv) override { naiveCholeskyInverse<double>(M_, Minv); }
   void solve(const Eigen::MatrixXd& R, Eigen::MatrixXd& X) override {
     X = R;

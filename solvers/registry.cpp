@@ -8,13 +8,19 @@
 #include "solvers/ltdl.hpp"
 #include "solvers/ltl.hpp"
 #include "solvers/naive.hpp"
+#ifdef MINV_HAVE_MUJOCO
+#include "solvers/mujoco.hpp"
+#endif
 
 namespace minv {
 
 namespace {
+// A solver class T with a static countStages(model, q, m) gets it registered as its counter.
 template <class T>
 SolverEntry entry(const char* name, const char* summary) {
-  return {name, summary, [] { return std::unique_ptr<Solver>(new T()); }};
+  SolverEntry e{name, summary, [] { return std::unique_ptr<Solver>(new T()); }, {}};
+  if constexpr (requires { &T::countStages; }) e.count = &T::countStages;
+  return e;
 }
 }  // namespace
 
@@ -26,6 +32,9 @@ const std::vector<SolverEntry>& solverRegistry() {
       entry<LtdlSolver>("ltdl", "CRBA + Featherstone 2005 branch-induced-sparsity LᵀDL"),
       entry<NaiveSolver>("naive", "CRBA + textbook dense Cholesky, no library"),
       entry<EigenSolver>("eigen", "CRBA + Eigen::LLT blocked dense Cholesky"),
+#ifdef MINV_HAVE_MUJOCO
+      entry<MujocoSolver>("mujoco", "MuJoCo 2.2.2: MJCF model, mj_crb + mj_factorM + mj_solveM"),
+#endif
   };
   return registry;
 }

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "core/counting.hpp"
 #include "core/model.hpp"
 
 namespace minv {
@@ -21,6 +22,9 @@ namespace minv {
 class Solver {
  public:
   virtual ~Solver() = default;
+  // Whether this solver can handle the tree at all (a peer library may have limits); if not,
+  // *why says so. The conformance suite and the experiments skip it with that reason.
+  virtual bool supports(const Model& model, std::string* why) const { return true; }
   // Allocate for this tree; the model must outlive the solver.
   virtual void prepare(const Model& model) = 0;
   // Per configuration q (size model.nq()).
@@ -31,10 +35,30 @@ class Solver {
   virtual void solve(const Eigen::MatrixXd& R, Eigen::MatrixXd& X) = 0;
 };
 
+// Operation counts of one stage of a method: counted by running its kernels on the Counted
+// scalar, or, for a library that cannot run on it, its documented counts (LAPACK Working
+// Note 41), marked as such.
+struct StageCount {
+  std::string stage;
+  FlopCounts counts;
+  bool documented = false;
+};
+
+// The stages of a StageCounter as the registry reports them.
+inline std::vector<StageCount> stageCounts(const StageCounter& counter) {
+  std::vector<StageCount> out;
+  for (const auto& [stage, counts] : counter.stages()) out.push_back({stage, counts, false});
+  return out;
+}
+
+// Counts every stage of a solver's pipeline from q to M⁻¹ (inverse) or to M⁻¹R with m columns.
+using CountFn = std::function<std::vector<StageCount>(const Model&, const Eigen::VectorXd& q, int m)>;
+
 struct SolverEntry {
   std::string name;
   std::string summary;  // one line for `minv solvers`
   std::function<std::unique_ptr<Solver>()> make;
+  CountFn count;  // empty where the solver's arithmetic cannot be counted
 };
 
 // Every registered solver, in a fixed order.
