@@ -9,6 +9,7 @@
 #include <cmath>
 #include <vector>
 
+#include "core/counting.hpp"
 #include "core/model.hpp"
 #include "core/spatial.hpp"
 
@@ -67,9 +68,10 @@ Pose<T> jointPose(const Joint& j, const VecX<T>& q, int o) {
   return J;
 }
 
-// Stage "spatial axes": poses ⁰X_i and world-frame motion subspaces S_i.
-template <class T>
-void forwardKinematics(const Model& model, const VecX<T>& q, Kinematics<T>& kin) {
+// Stage "spatial axes": poses ⁰X_i and world-frame motion subspaces S_i; one mark per body.
+template <class T, class Mark = NoMark>
+void forwardKinematics(const Model& model, const VecX<T>& q, Kinematics<T>& kin,
+                       Mark&& mark = {}) {
   for (int i = 0; i < model.nb(); ++i) {
     const Joint& j = model.joint(i);
     const int p = model.parent(i), v = model.vIdx(i);
@@ -97,18 +99,20 @@ void forwardKinematics(const Model& model, const VecX<T>& q, Kinematics<T>& kin)
         }
         break;
     }
+    mark("spatial axes");
   }
 }
 
-// Stage "isolated inertias": I_i = mcI(m, ⁰c_i, R Ī Rᵀ) about the world origin.
-template <class T>
-void worldInertias(const Model& model, Kinematics<T>& kin) {
+// Stage "isolated inertias": I_i = mcI(m, ⁰c_i, R Ī Rᵀ) about the world origin; a mark per body.
+template <class T, class Mark = NoMark>
+void worldInertias(const Model& model, Kinematics<T>& kin, Mark&& mark = {}) {
   for (int i = 0; i < model.nb(); ++i) {
     const Body& b = model.body(i);
     const Pose<T>& X = kin.X[i];
     const Vec3<T> c = X.p + X.R * b.com.cast<T>();
     const Mat3<T> Ic = X.R * b.inertia.cast<T>() * X.R.transpose();
     kin.I[i] = mcI<T>(T(b.mass), c, Ic);
+    mark("isolated inertias");
   }
 }
 

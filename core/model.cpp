@@ -79,7 +79,9 @@ void checkJoint(int i, Joint& j, int parent) {
     if (!finite(j.axis)) throw ModelError(at + ": joint axis is not finite");
     const double n = j.axis.norm();
     if (n < 1e-12) throw ModelError(at + ": joint axis is zero");
-    j.axis /= n;
+    // Normalise, but keep an axis that is already unit to rounding, so that reading a written
+    // model reproduces it bit for bit.
+    if (std::abs(n - 1) > 4e-16) j.axis /= n;
   }
   if (j.type == JointType::Floating && parent != -1)
     throw ModelError(at + ": a floating joint must attach a root body to the world");

@@ -6,23 +6,7 @@ std::vector<StageCount> AbiSolver::countStages(const Model& model, const Eigen::
                                                int m) {
   flopReset();
   StageCounter mark;
-  Kinematics<Counted> kin(model);
-  Articulated<Counted> art(model);
-  AbiWorkspace<Counted> ws(model);
-  const VecX<Counted> qc = q.cast<Counted>();
-  forwardKinematics<Counted>(model, qc, kin);
-  mark("spatial axes");
-  worldInertias<Counted>(model, kin);
-  mark("isolated inertias");
-  articulatedInertias<Counted>(model, kin, art);
-  mark("articulated inertias");
-  MatX<Counted> X(model.nv(), m > 0 ? m : model.nv());
-  if (m == 0) {
-    abiInverse<Counted>(model, kin, art, ws, X, mark);
-  } else {
-    const MatX<Counted> R = MatX<Counted>::Identity(model.nv(), m);
-    abiSolve<Counted>(model, kin, art, ws, R, X, mark);
-  }
+  abiPipeline<Counted>(model, q, m, mark);
   return stageCounts(mark);
 }
 

@@ -118,6 +118,28 @@ void abiSolve(const Model& model, const Kinematics<T>& kin, const Articulated<T>
   ws.u.setZero();
 }
 
+// Algorithm 1/2's whole pipeline from q on the scalar T, marking each stage of Table 1:
+// spatial axes, isolated inertias, articulated inertias, then per column impulse propagation
+// and velocity updates. M⁻¹ for m = 0, else M⁻¹R for R = the first m columns of I.
+template <class T, class Mark>
+void abiPipeline(const Model& model, const Eigen::VectorXd& q, int m, Mark&& mark) {
+  Kinematics<T> kin(model);
+  Articulated<T> art(model);
+  AbiWorkspace<T> ws(model);
+  const VecX<T> qt = q.cast<T>();
+  forwardKinematics<T>(model, qt, kin, mark);
+  worldInertias<T>(model, kin, mark);
+  articulatedInertias<T>(model, kin, art);
+  mark("articulated inertias");
+  MatX<T> X(model.nv(), m > 0 ? m : model.nv());
+  if (m == 0) {
+    abiInverse<T>(model, kin, art, ws, X, mark);
+  } else {
+    const MatX<T> R = MatX<T>::Identity(model.nv(), m);
+    abiSolve<T>(model, kin, art, ws, R, X, mark);
+  }
+}
+
 class AbiSolver final : public Solver {
  public:
   // Every stage of Table 1 on the counting scalar.

@@ -1,0 +1,317 @@
+#include "experiments/lib/h5writer.hpp"
+
+#include <filesystem>
+#include <stdexcept>
+#include <system_error>
+#include <utility>
+
+namespace minv {
+
+namespace {
+
+// An HDF5 identifier closed by its own close function when it goes out of scope.
+class Hid {
+ public:
+  Hid(hid_t id, herr_t (*close)(hid_t)) : id_(id), close_(close) {}
+  Hid(const Hid&) = delete;
+  Hid& operator=(const Hid&) = delete;
+  ~Hid() {
+    if (id_ >= 0) close_(id_);
+  }
+  operator hid_t() const { return id_; }
+  bool ok() const { return id_ >= 0; }
+
+ private:
+  hid_t id_;
+  herr_t (*close_)(hid_t);
+};
+
+// HDF5's innermost error description (where the failure was detected); clears the stack.
+std::string hdf5Message() {
+  std::string msg;
+  auto innermost = [](unsigned n, const H5E_error2_t* e, void* data) -> herr_t {
+    if (n == 0 && e->desc) *static_cast<std::string*>(data) = e->desc;
+    return 0;
+  };
+  H5Ewalk2(H5E_DEFAULT, H5E_WALK_UPWARD, innermost, &msg);
+  H5Eclear2(H5E_DEFAULT);
+  return msg;
+}
+
+// "a//b/" → "/a/b"; "" and "/" → "/".
+std::string absolute(const std::string& path) {
+  std::string out;
+  std::size_t i = 0;
+  while (i < path.size()) {
+    const std::size_t j = std::min(path.find('/', i), path.size());
+    if (j > i) out.append(1, '/').append(path, i, j - i);
+    i = j + 1;
+  }
+  return out.empty() ? "/" : out;
+}
+
+// Whether every component of an absolute path exists (H5Lexists needs the parents to).
+bool linkExists(hid_t file, const std::string& abs) {
+  if (abs == "/") return true;
+  for (std::size_t j = abs.find('/', 1);; j = abs.find('/', j + 1)) {
+    const std::string prefix = abs.substr(0, j);
+    if (H5Lexists(file, prefix.c_str(), H5P_DEFAULT) <= 0) {
+      H5Eclear2(H5E_DEFAULT);
+      return false;
+    }
+    if (j == std::string::npos) return true;
+  }
+}
+
+// A link-creation property list that creates missing intermediate groups.
+hid_t intermediateGroups() {
+  const hid_t lcpl = H5Pcreate(H5P_LINK_CREATE);
+  if (lcpl >= 0) H5Pset_create_intermediate_group(lcpl, 1);
+  return lcpl;
+}
+
+// A variable-length UTF-8 string type.
+hid_t utf8StringType() {
+  const hid_t t = H5Tcopy(H5T_C_S1);
+  if (t >= 0 && (H5Tset_size(t, H5T_VARIABLE) < 0 || H5Tset_cset(t, H5T_CSET_UTF8) < 0)) {
+    H5Tclose(t);
+    return -1;
+  }
+  return t;
+}
+
+}  // namespace
+
+void silenceHdf5Errors() {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+}
+
+// Create mode writes to the tmp file; append mode opens or creates the file itself.
+H5Writer::H5Writer(const std::string& path) : H5Writer(path, false) {}
+
+H5Writer H5Writer::append(const std::string& path) {
+  return H5Writer(path, true);
+}
+
+H5Writer::H5Writer(const std::string& path, bool append)
+    : path_(path), file_path_(append ? path : path + ".tmp"), append_(append) {
+  silenceHdf5Errors();
+  if (path.empty()) throw std::runtime_error("HDF5: empty output file name");
+  // Strong close degree: closing the file closes anything still open in it.
+  Hid fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
+  if (!fapl.ok() || H5Pset_fclose_degree(fapl, H5F_CLOSE_STRONG) < 0)
+    fail("set up file access for", file_path_);
+  std::error_code ec;
+  if (append && std::filesystem::exists(path, ec)) {
+    file_ = H5Fopen(file_path_.c_str(), H5F_ACC_RDWR, fapl);
+    if (file_ < 0) fail("open for appending", file_path_);
+  } else {
+    file_ = H5Fcreate(file_path_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
+    if (file_ < 0) fail("create", file_path_);
+  }
+}
+
+H5Writer::H5Writer(H5Writer&& other) noexcept
+    : path_(std::move(other.path_)),
+      file_path_(std::move(other.file_path_)),
+      append_(other.append_),
+      committed_(other.committed_),
+      file_(std::exchange(other.file_, -1)) {
+  other.committed_ = true;  // the moved-from writer owns no file and must not remove one
+}
+
+// Without commit: close, and in create mode delete the tmp file.
+H5Writer::~H5Writer() {
+  if (file_ >= 0) H5Fclose(file_);
+  if (!append_ && !committed_ && !file_path_.empty()) {
+    std::error_code ec;
+    std::filesystem::remove(file_path_, ec);
+  }
+}
+
+void H5Writer::requireOpen(const char* what) const {
+  if (file_ < 0)
+    throw std::runtime_error(std::string("HDF5: cannot ") + what + " in " + file_path_ +
+                             ": the writer was already committed");
+}
+
+void H5Writer::fail(const std::string& what, const std::string& object) const {
+  const std::string msg = hdf5Message();
+  throw std::runtime_error("HDF5: cannot " + what + " '" + object + "'" +
+                           (object == file_path_ ? "" : " in " + file_path_) +
+                           (msg.empty() ? "" : ": " + msg));
+}
+
+// Groups: walk down the path, creating what is missing.
+void H5Writer::createGroup(const std::string& group) {
+  requireOpen("create a group");
+  const std::string abs = absolute(group);
+  if (linkExists(file_, abs)) {
+    if (!hasGroup(abs)) fail("create group (a dataset has that name)", abs);
+    return;
+  }
+  Hid lcpl(intermediateGroups(), H5Pclose);
+  Hid g(H5Gcreate2(file_, abs.c_str(), lcpl, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
+  if (!g.ok()) fail("create group", abs);
+}
+
+bool H5Writer::exists(const std::string& object) const {
+  requireOpen("look up an object");
+  return linkExists(file_, absolute(object));
+}
+
+bool H5Writer::hasGroup(const std::string& group) const {
+  requireOpen("look up a group");
+  const std::string abs = absolute(group);
+  if (!linkExists(file_, abs)) return false;
+  H5O_info_t info;
+  if (H5Oget_info_by_name(file_, abs.c_str(), &info, H5P_DEFAULT) < 0) {
+    H5Eclear2(H5E_DEFAULT);
+    return false;
+  }
+  return info.type == H5O_TYPE_GROUP;
+}
+
+// One dataset: its dataspace, then create (with missing parent groups) and write.
+void H5Writer::writeDataset(const std::string& dataset, hid_t file_type, hid_t mem_type,
+                            const std::vector<hsize_t>& dims, const void* data) {
+  requireOpen("write a dataset");
+  const std::string abs = absolute(dataset);
+  if (abs == "/") fail("write a dataset at the root", abs);
+  Hid space(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr), H5Sclose);
+  if (!space.ok()) fail("create the dataspace of", abs);
+  Hid lcpl(intermediateGroups(), H5Pclose);
+  Hid ds(H5Dcreate2(file_, abs.c_str(), file_type, space, lcpl, H5P_DEFAULT, H5P_DEFAULT),
+         H5Dclose);
+  if (!ds.ok()) fail("create dataset", abs);
+  hsize_t count = 1;
+  for (hsize_t d : dims) count *= d;
+  if (count > 0 && H5Dwrite(ds, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0)
+    fail("write dataset", abs);
+}
+
+// Matrix: copy to row-major so the file's [rows, cols] reads naturally in C and h5py.
+void H5Writer::writeMatrix(const std::string& dataset, const Eigen::MatrixXd& m) {
+  using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  const RowMajor r = m;
+  writeDataset(dataset, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE,
+               {static_cast<hsize_t>(m.rows()), static_cast<hsize_t>(m.cols())}, r.data());
+}
+
+void H5Writer::writeVector(const std::string& dataset, const Eigen::VectorXd& v) {
+  writeDataset(dataset, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {static_cast<hsize_t>(v.size())},
+               v.data());
+}
+
+void H5Writer::writeVector(const std::string& dataset, const std::vector<double>& v) {
+  writeDataset(dataset, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {v.size()}, v.data());
+}
+
+// Integers are widened to int64 on file.
+void H5Writer::writeIntVector(const std::string& dataset, const std::vector<int>& v) {
+  writeIntVector(dataset, std::vector<std::int64_t>(v.begin(), v.end()));
+}
+
+void H5Writer::writeIntVector(const std::string& dataset, const std::vector<std::int64_t>& v) {
+  writeDataset(dataset, H5T_STD_I64LE, H5T_NATIVE_INT64, {v.size()}, v.data());
+}
+
+// Strings: an array of variable-length UTF-8 strings.
+void H5Writer::writeStrings(const std::string& dataset, const std::vector<std::string>& v) {
+  Hid type(utf8StringType(), H5Tclose);
+  if (!type.ok()) fail("make a string type for", dataset);
+  std::vector<const char*> ptrs;
+  for (const std::string& s : v) ptrs.push_back(s.c_str());
+  writeDataset(dataset, type, type, {v.size()}, ptrs.data());
+}
+
+// Attributes: replace an existing one, then create a scalar and write it.
+void H5Writer::writeAttribute(const std::string& object, const std::string& name, hid_t file_type,
+                              hid_t mem_type, const void* data) {
+  requireOpen("write an attribute");
+  const std::string abs = absolute(object), label = abs + "@" + name;
+  if (!linkExists(file_, abs)) fail("write attribute (no such object)", label);
+  const htri_t there = H5Aexists_by_name(file_, abs.c_str(), name.c_str(), H5P_DEFAULT);
+  if (there < 0) fail("look up attribute", label);
+  if (there > 0 && H5Adelete_by_name(file_, abs.c_str(), name.c_str(), H5P_DEFAULT) < 0)
+    fail("replace attribute", label);
+  Hid space(H5Screate(H5S_SCALAR), H5Sclose);
+  if (!space.ok()) fail("create the dataspace of", label);
+  Hid attr(H5Acreate_by_name(file_, abs.c_str(), name.c_str(), file_type, space, H5P_DEFAULT,
+                             H5P_DEFAULT, H5P_DEFAULT),
+           H5Aclose);
+  if (!attr.ok()) fail("create attribute", label);
+  if (H5Awrite(attr, mem_type, data) < 0) fail("write attribute", label);
+}
+
+void H5Writer::setAttribute(const std::string& object, const std::string& name, double value) {
+  writeAttribute(object, name, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, &value);
+}
+
+void H5Writer::setAttribute(const std::string& object, const std::string& name,
+                            std::int64_t value) {
+  writeAttribute(object, name, H5T_STD_I64LE, H5T_NATIVE_INT64, &value);
+}
+
+void H5Writer::setAttribute(const std::string& object, const std::string& name,
+                            std::uint64_t value) {
+  writeAttribute(object, name, H5T_STD_U64LE, H5T_NATIVE_UINT64, &value);
+}
+
+void H5Writer::setAttribute(const std::string& object, const std::string& name,
+                            const std::string& value) {
+  Hid type(utf8StringType(), H5Tclose);
+  if (!type.ok()) fail("make a string type for", absolute(object) + "@" + name);
+  const char* ptr = value.c_str();
+  writeAttribute(object, name, type, type, &ptr);
+}
+
+// A point is staged in "<name>.partial" (a stale one from a killed run is dropped first).
+std::string H5Writer::beginPoint(const std::string& name) {
+  const std::string staging = absolute(name) + ".partial";
+  remove(staging);
+  createGroup(staging);
+  return staging;
+}
+
+// Publish the staged point under its name (replacing an older one), then flush.
+void H5Writer::endPoint(const std::string& name) {
+  requireOpen("finish a point");
+  const std::string abs = absolute(name), staging = abs + ".partial";
+  if (!hasGroup(staging)) fail("finish point (beginPoint was not called)", abs);
+  remove(abs);
+  Hid lcpl(intermediateGroups(), H5Pclose);
+  if (H5Lmove(file_, staging.c_str(), file_, abs.c_str(), lcpl, H5P_DEFAULT) < 0)
+    fail("publish point", abs);
+  flush();
+}
+
+void H5Writer::remove(const std::string& object) {
+  requireOpen("remove an object");
+  const std::string abs = absolute(object);
+  if (abs == "/") fail("remove the root group", abs);
+  if (linkExists(file_, abs) && H5Ldelete(file_, abs.c_str(), H5P_DEFAULT) < 0) fail("remove", abs);
+}
+
+void H5Writer::flush() {
+  requireOpen("flush");
+  if (H5Fflush(file_, H5F_SCOPE_GLOBAL) < 0) fail("flush", file_path_);
+}
+
+// Close (which writes everything), then move the tmp file into place.
+void H5Writer::commit() {
+  requireOpen("commit");
+  const herr_t closed = H5Fclose(std::exchange(file_, -1));
+  if (closed < 0) fail("close", file_path_);
+  if (append_) {
+    committed_ = true;
+    return;
+  }
+  std::error_code ec;
+  std::filesystem::rename(file_path_, path_, ec);
+  if (ec)
+    throw std::runtime_error("cannot rename " + file_path_ + " to " + path_ + ": " + ec.message());
+  committed_ = true;
+}
+
+}  // namespace minv

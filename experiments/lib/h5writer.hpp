@@ -1,0 +1,110 @@
+// The one HDF5 result writer of the project (plain HDF5 C API), used by every experiment.
+//
+// Contract:
+//   * H5Writer(path) writes to `path + ".tmp"`; commit() closes it and renames it to `path`.
+//     Destroying a writer that was not committed deletes the tmp file, so a failed run never
+//     leaves a (half-written) result file at `path`.
+//   * H5Writer::append(path) opens `path` read-write, or creates it, and writes in place, for
+//     sweeps that write each point when it finishes and resume after a kill: write a point
+//     between beginPoint(name) and endPoint(name). Its data go to a staging group
+//     "<name>.partial", which endPoint() renames to <name> and then flushes the file
+//     (H5Fflush), so a finished point survives a killed process and hasGroup(name) is true
+//     only for finished points. beginPoint() drops a staging group a killed run left behind.
+//     (HDF5 1.10 without SWMR: a kill in the middle of a point may still leave the file
+//     unreadable; the flushed state after each point is what this mode promises.)
+//   * Object paths are "/"-separated and relative to the root ("a/b" = "/a/b"); writing a
+//     dataset creates the missing groups on its path.
+//   * Layout: a matrix is stored row-major as [rows, cols], so h5py reads M[i, j] = M(i, j);
+//     doubles as IEEE float64, integers as int64 (a uint64 attribute as uint64), strings as
+//     variable-length UTF-8 (datasets and attributes). A dataset is written once (writing it
+//     again throws); an attribute is scalar and writing it again replaces it.
+//   * Every HDF5 failure throws std::runtime_error naming the operation, the object, the file
+//     and HDF5's innermost error message. HDF5's own error-stack printing is switched off.
+#pragma once
+
+#include <hdf5.h>
+
+#include <Eigen/Core>
+#include <concepts>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace minv {
+
+// Switch off HDF5's automatic error-stack printing (process-wide; idempotent).
+void silenceHdf5Errors();
+
+class H5Writer {
+ public:
+  // Create mode: write to path + ".tmp", renamed to path by commit().
+  explicit H5Writer(const std::string& path);
+  // Append mode: open path (or create it) and write in place.
+  static H5Writer append(const std::string& path);
+
+  H5Writer(H5Writer&& other) noexcept;
+  H5Writer& operator=(H5Writer&&) = delete;
+  H5Writer(const H5Writer&) = delete;
+  H5Writer& operator=(const H5Writer&) = delete;
+  // Not committed: closes and removes the tmp file (create mode) or just closes (append mode).
+  ~H5Writer();
+
+  // The final path, and the path actually being written (path + ".tmp" in create mode).
+  const std::string& path() const { return path_; }
+  const std::string& writingPath() const { return file_path_; }
+  bool appendMode() const { return append_; }
+
+  // Groups: create "a/b" with its missing parents (an existing group is fine).
+  void createGroup(const std::string& group);
+  bool hasGroup(const std::string& group) const;
+  bool exists(const std::string& object) const;
+
+  // Datasets.
+  void writeMatrix(const std::string& dataset, const Eigen::MatrixXd& m);
+  void writeVector(const std::string& dataset, const Eigen::VectorXd& v);
+  void writeVector(const std::string& dataset, const std::vector<double>& v);
+  void writeIntVector(const std::string& dataset, const std::vector<int>& v);
+  void writeIntVector(const std::string& dataset, const std::vector<std::int64_t>& v);
+  void writeStrings(const std::string& dataset, const std::vector<std::string>& v);
+
+  // Scalar attributes on a group or dataset ("/" = the file root); overwritten if present.
+  void setAttribute(const std::string& object, const std::string& name, double value);
+  void setAttribute(const std::string& object, const std::string& name, std::int64_t value);
+  void setAttribute(const std::string& object, const std::string& name, std::uint64_t value);
+  void setAttribute(const std::string& object, const std::string& name, const std::string& value);
+  void setAttribute(const std::string& object, const std::string& name, const char* value) {
+    setAttribute(object, name, std::string(value));
+  }
+  template <std::integral I>
+  requires(!std::same_as<I, std::int64_t> && !std::same_as<I, std::uint64_t> &&
+           !std::same_as<I, bool>) void setAttribute(const std::string& object,
+                                                     const std::string& name, I value) {
+    setAttribute(object, name, static_cast<std::int64_t>(value));
+  }
+
+  // Append mode: a point's staging group (returned; write into it), then its publication.
+  std::string beginPoint(const std::string& name);
+  void endPoint(const std::string& name);
+  // Delete a link (group or dataset); absent is fine.
+  void remove(const std::string& object);
+
+  // Push everything written so far to disk.
+  void flush();
+  // Close the file; in create mode rename the tmp file to path(). The writer is then spent.
+  void commit();
+
+ private:
+  H5Writer(const std::string& path, bool append);
+  void requireOpen(const char* what) const;
+  void writeDataset(const std::string& dataset, hid_t file_type, hid_t mem_type,
+                    const std::vector<hsize_t>& dims, const void* data);
+  void writeAttribute(const std::string& object, const std::string& name, hid_t file_type,
+                      hid_t mem_type, const void* data);
+  [[noreturn]] void fail(const std::string& what, const std::string& object) const;
+
+  std::string path_, file_path_;
+  bool append_ = false, committed_ = false;
+  hid_t file_ = -1;
+};
+
+}  // namespace minv

@@ -1,0 +1,435 @@
+// The `minv` command, run as a separate process (MINV_CLI) in a temporary directory:
+// generate → solve round trips whose HDF5 output is read back with the HDF5 C API and checked
+// independently with Eigen (M symmetric positive definite, Minv·M ≈ 1 for every solver), and
+// one test per kind of bad input: exit status 2, one telling stderr line, no output file.
+#include <gtest/gtest.h>
+#include <hdf5.h>
+#include <stdlib.h>
+#include <sys/wait.h>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Core>
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "solvers/solver.hpp"
+
+namespace minv {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct CliRun {
+  int status = -1;
+  std::string out, err;
+};
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// A fresh temporary directory per test; the command runs inside it.
+class CliFixture : public testing::Test {
+ protected:
+  void SetUp() override {
+    std::string tmpl = (fs::temp_directory_path() / "minv_cli_XXXXXX").string();
+    ASSERT_NE(mkdtemp(tmpl.data()), nullptr);
+    dir_ = tmpl;
+  }
+  void TearDown() override {
+    std::error_code ec;
+    fs::remove_all(dir_, ec);
+  }
+
+  // Run `minv args` in the directory; capture exit status, stdout and stderr.
+  CliRun minv(const std::string& args) const {
+    const std::string cmd =
+        "cd '" + dir_.string() + "' && '" MINV_CLI "' " + args + " > .stdout 2> .stderr";
+    const int rc = std::system(cmd.c_str());
+    CliRun r;
+    r.status = WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+    r.out = slurp(dir_ / ".stdout");
+    r.err = slurp(dir_ / ".stderr");
+    return r;
+  }
+
+  std::string path(const std::string& name) const { return (dir_ / name).string(); }
+  void write(const std::string& name, const std::string& text) const {
+    std::ofstream(dir_ / name) << text;
+  }
+
+  // A failed run: status 2, exactly one stderr line "minv: error: …" containing `telling`,
+  // and neither the output file nor its tmp file.
+  void expectFailure(const std::string& args, const std::string& telling,
+                     const std::string& out = "out.h5") const {
+    const CliRun r = minv(args);
+    EXPECT_EQ(r.status, 2) << args << "\nstderr: " << r.err;
+    EXPECT_EQ(r.err.rfind("minv: error: ", 0), 0u) << args << "\nstderr: " << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << args << "\n" << r.err;
+    EXPECT_NE(r.err.find(telling), std::string::npos)
+        << args << "\nexpected '" << telling << "' in: " << r.err;
+    EXPECT_FALSE(fs::exists(dir_ / out)) << args;
+    EXPECT_FALSE(fs::exists(dir_ / (out + ".tmp"))) << args;
+  }
+
+  fs::path dir_;
+};
+
+// Reading the result file with the plain HDF5 C API.
+struct H5File {
+  hid_t id;
+  explicit H5File(const std::string& path) {
+    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+    id = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    if (id < 0) throw std::runtime_error("cannot open " + path);
+  }
+  ~H5File() { H5Fclose(id); }
+
+  bool has(const std::string& name) const { return H5Lexists(id, name.c_str(), H5P_DEFAULT) > 0; }
+
+  // A dataset as a matrix (rows × cols as stored, row-major on file); a vector is n × 1.
+  Eigen::MatrixXd matrix(const std::string& name) const {
+    const hid_t ds = H5Dopen2(id, name.c_str(), H5P_DEFAULT);
+    if (ds < 0) throw std::runtime_error("no dataset " + name);
+    const hid_t space = H5Dget_space(ds);
+    hsize_t dims[2] = {1, 1};
+    H5Sget_simple_extent_dims(space, dims, nullptr);
+    H5Sclose(space);
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> m(dims[0], dims[1]);
+    EXPECT_GE(H5Dread(ds, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, m.data()), 0);
+    H5Dclose(ds);
+    return m;
+  }
+  hsize_t length(const std::string& name) const {
+    const hid_t ds = H5Dopen2(id, name.c_str(), H5P_DEFAULT);
+    const hid_t space = H5Dget_space(ds);
+    hsize_t n = 0;
+    H5Sget_simple_extent_dims(space, &n, nullptr);
+    H5Sclose(space);
+    H5Dclose(ds);
+    return n;
+  }
+  template <class T>
+  T attr(const std::string& obj, const std::string& name, hid_t type) const {
+    const hid_t a = H5Aopen_by_name(id, obj.c_str(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT);
+    if (a < 0) throw std::runtime_error("no attribute " + obj + "@" + name);
+    T v{};
+    EXPECT_GE(H5Aread(a, type, &v), 0);
+    H5Aclose(a);
+    return v;
+  }
+  double real(const std::string& obj, const std::string& name) const {
+    return attr<double>(obj, name, H5T_NATIVE_DOUBLE);
+  }
+  std::int64_t integer(const std::string& obj, const std::string& name) const {
+    return attr<std::int64_t>(obj, name, H5T_NATIVE_INT64);
+  }
+};
+
+class CliRoundTrip : public CliFixture {
+ protected:
+  // generate → solve --solver all, then check the file independently.
+  void roundTrip(const std::string& gen_args, int expect_nv, bool floating) {
+    const CliRun g = minv("generate " + gen_args + " --out tree.json");
+    ASSERT_EQ(g.status, 0) << g.err;
+    EXPECT_NE(g.out.find("nv=" + std::to_string(expect_nv)), std::string::npos) << g.out;
+    EXPECT_NE(g.out.find("tree.json"), std::string::npos) << g.out;
+    const CliRun s = minv("solve --model tree.json --solver all --q-seed 7 --rhs 3 --out r.h5");
+    ASSERT_EQ(s.status, 0) << s.err;
+    EXPECT_EQ(s.err, "");
+    EXPECT_FALSE(fs::exists(dir_ / "r.h5.tmp"));
+
+    H5File f(path("r.h5"));
+    const int nv = static_cast<int>(f.integer("/", "nv"));
+    ASSERT_EQ(nv, expect_nv);
+    EXPECT_EQ(f.integer("/", "q_seed"), 7);
+    // M: nv × nv, symmetric (exactly off the diagonal blocks; a multi-DOF joint's diagonal
+    // block Sᵀ(Ic S) only to rounding), positive definite.
+    const Eigen::MatrixXd M = f.matrix("M");
+    ASSERT_EQ(M.rows(), nv);
+    ASSERT_EQ(M.cols(), nv);
+    EXPECT_LE((M - M.transpose()).cwiseAbs().maxCoeff(), 1e-14 * M.cwiseAbs().maxCoeff());
+    EXPECT_EQ(Eigen::LLT<Eigen::MatrixXd>(M).info(), Eigen::Success);
+    // Numbering datasets.
+    EXPECT_EQ(f.length("dof_names"), static_cast<hsize_t>(nv));
+    EXPECT_EQ(f.length("parent"), static_cast<hsize_t>(nv));
+    EXPECT_EQ(f.length("body_parent"), static_cast<hsize_t>(f.integer("/", "nb")));
+    EXPECT_EQ(f.length("q"), static_cast<hsize_t>(f.integer("/", "nq")));
+    // A floating base: its pose is q's first 7 entries, with a unit quaternion.
+    EXPECT_EQ(f.has("base_position"), floating);
+    EXPECT_EQ(f.has("base_quaternion"), floating);
+    if (floating) {
+      const Eigen::VectorXd q = f.matrix("q");
+      EXPECT_EQ(Eigen::VectorXd(f.matrix("base_position")), q.head(3));
+      const Eigen::VectorXd quat = f.matrix("base_quaternion");
+      EXPECT_EQ(quat, q.segment(3, 4));
+      EXPECT_NEAR(quat.norm(), 1.0, 1e-12);
+    }
+    // Every solver: Minv·M ≈ 1 computed here, and the stored residuals agree.
+    const Eigen::MatrixXd I = Eigen::MatrixXd::Identity(nv, nv);
+    for (const std::string& name : solverNames()) {
+      const std::string g = "/solvers/" + name;
+      ASSERT_TRUE(f.has(g)) << name;
+      const Eigen::MatrixXd X = f.matrix(g + "/Minv");
+      ASSERT_EQ(X.rows(), nv) << name;
+      ASSERT_EQ(X.cols(), nv) << name;
+      EXPECT_LT((X * M - I).norm(), 1e-9 * std::sqrt(nv)) << name;
+      const double defect = (M * X - I).norm();
+      const double residual = defect / (M.norm() * X.norm());
+      EXPECT_NEAR(f.real(g, "residual"), residual, 1e-3 * residual + 1e-18) << name;
+      EXPECT_NEAR(f.real(g, "residual_identity"), defect / std::sqrt(nv), 1e-3 * defect) << name;
+      EXPECT_LT(f.real(g, "residual"), 1e-12) << name;
+      EXPECT_LT(f.real(g, "solve_residual"), 1e-9) << name;
+      EXPECT_GT(f.real(g, "time_s"), 0.0) << name;
+      EXPECT_NE(s.out.find(name + " "), std::string::npos) << s.out;
+    }
+  }
+};
+
+TEST_F(CliRoundTrip, SerialRevolute) {
+  roundTrip("--topology serial --n 40 --seed 3", 40, false);
+}
+
+TEST_F(CliRoundTrip, BranchedRevolute) {
+  roundTrip("--topology branched --n 60 --seed 4", 60, false);
+  EXPECT_NE(minv("solve --model tree.json --solver abi --out x.h5").out.find("branched"),
+            std::string::npos);
+}
+
+TEST_F(CliRoundTrip, FloatingBaseMixed) {
+  const CliRun g = minv(
+      "generate --topology branched --n 30 --seed 5 --joints mixed "
+      "--floating-base --out probe.json");
+  ASSERT_EQ(g.status, 0) << g.err;
+  // nv depends on the drawn joint types; take it from the printed line.
+  const std::size_t at = g.out.find("nv=");
+  ASSERT_NE(at, std::string::npos);
+  const int nv = std::stoi(g.out.substr(at + 3));
+  EXPECT_GT(nv, 36);  // 6 for the base, 30 links, some of them spherical
+  roundTrip("--topology branched --n 30 --seed 5 --joints mixed --floating-base", nv, true);
+}
+
+TEST_F(CliRoundTrip, UrdfModelAndOneSolver) {
+  ASSERT_EQ(minv("generate --topology serial --n 12 --out arm.urdf").status, 0);
+  const CliRun s = minv("solve --model arm.urdf --solver ltl --out r.h5");
+  ASSERT_EQ(s.status, 0) << s.err;
+  H5File f(path("r.h5"));
+  EXPECT_TRUE(f.has("/solvers/ltl"));
+  EXPECT_FALSE(f.has("/solvers/abi"));
+  EXPECT_LT(f.real("/solvers/ltl", "residual"), 1e-10);
+}
+
+TEST_F(CliRoundTrip, HelpSolversAndVersionExitZero) {
+  for (const char* args : {"--help", "generate --help", "solve --help", "solvers --help"}) {
+    const CliRun r = minv(args);
+    EXPECT_EQ(r.status, 0) << args;
+    EXPECT_NE(r.out.find("Usage"), std::string::npos) << args << r.out;
+  }
+  const CliRun r = minv("solvers");
+  EXPECT_EQ(r.status, 0);
+  for (const std::string& name : solverNames())
+    EXPECT_NE(r.out.find(name + " "), std::string::npos) << r.out;
+}
+
+// One body of a hand-written JSON model (the format of generators/model_io.hpp).
+struct JsonBody {
+  int parent = -1;
+  std::string axis = "[0, 0, 1]", mass = "1.5", com = "[0, 0, 0.1]",
+              inertia = "[[0.1, 0, 0], [0, 0.1, 0], [0, 0, 0.05]]";
+};
+
+std::string jsonModel(const std::vector<JsonBody>& bodies) {
+  std::string s = R"({"format": "minv-model", "version": 1, "name": "hand", "bodies": [)";
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
+    const JsonBody& b = bodies[i];
+    const std::string k = std::to_string(i);
+    s += (i ? ",\n" : "\n") + std::string(R"({"name": "b)") + k + R"(", "parent": )" +
+         std::to_string(b.parent) + R"(, "joint": {"name": "j)" + k +
+         R"(", "type": "revolute", "axis": )" + b.axis +
+         R"(, "placement": {"rotation": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], )" +
+         R"("translation": [0, 0, 0.5]}}, "mass": )" + b.mass + R"(, "com": )" + b.com +
+         R"(, "inertia": )" + b.inertia + "}";
+  }
+  return s + "\n]}\n";
+}
+
+class CliBadInput : public CliFixture {
+ protected:
+  // A two-body chain with the first body edited; solving it must fail.
+  void expectBadBody(const JsonBody& first, const std::string& telling) {
+    JsonBody second;
+    second.parent = 0;
+    write("bad.json", jsonModel({first, second}));
+    expectFailure("solve --model bad.json --out out.h5", telling);
+  }
+};
+
+TEST_F(CliBadInput, TheHandWrittenBaseModelIsValid) {
+  JsonBody second;
+  second.parent = 0;
+  write("good.json", jsonModel({JsonBody{}, second}));
+  const CliRun r = minv("solve --model good.json --out out.h5");
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_TRUE(fs::exists(path("out.h5")));
+}
+
+TEST_F(CliBadInput, ParentAfterChild) {
+  JsonBody first, second;
+  first.parent = 1;
+  second.parent = -1;
+  write("bad.json", jsonModel({first, second}));
+  expectFailure("solve --model bad.json --out out.h5", "parent");
+}
+
+TEST_F(CliBadInput, NonPositiveMass) {
+  JsonBody b;
+  b.mass = "0";
+  expectBadBody(b, "mass must be positive");
+  b.mass = "-2";
+  expectBadBody(b, "mass must be positive");
+}
+
+TEST_F(CliBadInput, InertiaNotPositiveDefinite) {
+  JsonBody b;
+  b.inertia = "[[-0.1, 0, 0], [0, 0.1, 0], [0, 0, 0.05]]";
+  expectBadBody(b, "positive definite");
+}
+
+TEST_F(CliBadInput, InertiaBreaksTriangleInequality) {
+  JsonBody b;
+  b.inertia = "[[0.1, 0, 0], [0, 0.1, 0], [0, 0, 0.5]]";
+  expectBadBody(b, "triangle inequality");
+}
+
+TEST_F(CliBadInput, ZeroAxis) {
+  JsonBody b;
+  b.axis = "[0, 0, 0]";
+  expectBadBody(b, "axis is zero");
+}
+
+TEST_F(CliBadInput, HugeOrNonFiniteNumber) {
+  JsonBody b;
+  b.mass = "1e999";
+  expectBadBody(b, "1e999");
+  b.mass = "NaN";  // not JSON at all
+  expectBadBody(b, "invalid JSON");
+  b.com = "[0, Infinity, 0]";
+  expectBadBody(b, "invalid JSON");
+}
+
+TEST_F(CliBadInput, MassMatrixOverflows) {
+  // Finite, valid bodies whose composite inertia overflows: M is not finite.
+  JsonBody b;
+  b.mass = "1.7e308";
+  b.inertia = "[[1e308, 0, 0], [0, 1e308, 0], [0, 0, 1e308]]";
+  JsonBody c = b;
+  c.parent = 0;
+  write("bad.json", jsonModel({b, c}));
+  expectFailure("solve --model bad.json --out out.h5", "non-finite");
+}
+
+TEST_F(CliBadInput, GenerateNonPositiveN) {
+  expectFailure("generate --topology serial --n 0 --out t.json", "n must be", "t.json");
+  expectFailure("generate --topology branched --n -3 --out t.json", "n must be", "t.json");
+}
+
+TEST_F(CliBadInput, GenerateBadNames) {
+  expectFailure("generate --topology tree --n 3 --out t.json", "unknown topology", "t.json");
+  expectFailure("generate --topology serial --joints twisty --n 3 --out t.json",
+                "unknown joint set", "t.json");
+  expectFailure("generate --topology serial --n 3 --out t.txt", "extension", "t.txt");
+  expectFailure("generate --topology serial --n 3 --seed -1 --out t.json", "--seed", "t.json");
+}
+
+TEST_F(CliBadInput, UnknownSolver) {
+  ASSERT_EQ(minv("generate --topology serial --n 5 --out m.json").status, 0);
+  expectFailure("solve --model m.json --solver magic --out out.h5", "unknown solver 'magic'");
+}
+
+TEST_F(CliBadInput, UnknownOptionAndMissingArguments) {
+  ASSERT_EQ(minv("generate --topology serial --n 5 --out m.json").status, 0);
+  expectFailure("solve --model m.json --frobnicate --out out.h5", "--frobnicate");
+  expectFailure("solve --model m.json", "--out is required");
+  expectFailure("solve --out out.h5", "--model is required");
+  expectFailure("solve --model m.json --rhs -1 --out out.h5", "--rhs");
+  expectFailure("solve --model m.json --q-seed x --out out.h5", "--q-seed");
+  expectFailure("", "subcommand");
+  expectFailure("transmogrify --n 3", "unknown subcommand 'transmogrify'");
+}
+
+TEST_F(CliBadInput, MissingFile) {
+  expectFailure("solve --model nowhere.json --out out.h5", "nowhere.json");
+}
+
+TEST_F(CliBadInput, MissingOutputDirectory) {
+  ASSERT_EQ(minv("generate --topology serial --n 5 --out m.json").status, 0);
+  expectFailure("solve --model m.json --out no/such/out.h5", "does not exist", "no/such/out.h5");
+  expectFailure("generate --topology serial --n 5 --out no/such/m.json", "does not exist",
+                "no/such/m.json");
+}
+
+TEST_F(CliBadInput, EmptyFile) {
+  write("empty.json", "");
+  expectFailure("solve --model empty.json --out out.h5", "empty");
+  write("empty.urdf", "");
+  expectFailure("solve --model empty.urdf --out out.h5", "empty");
+}
+
+TEST_F(CliBadInput, MalformedJson) {
+  write("bad.json", R"({"format": "minv-model", "version": 1, "bodies": [ {"name": )");
+  expectFailure("solve --model bad.json --out out.h5", "invalid JSON");
+}
+
+TEST_F(CliBadInput, MalformedUrdf) {
+  write("bad.urdf", "<robot name=\"r\"><link name=\"a\"></robot");
+  expectFailure("solve --model bad.urdf --out out.h5", "bad.urdf");
+}
+
+TEST_F(CliBadInput, FailedSolveKeepsNoPartialFileButLeavesOldOneAlone) {
+  // A previous good result is not replaced by a failing run.
+  ASSERT_EQ(minv("generate --topology serial --n 5 --out m.json").status, 0);
+  ASSERT_EQ(minv("solve --model m.json --out out.h5").status, 0);
+  const auto before = fs::last_write_time(path("out.h5"));
+  const CliRun r = minv("solve --model m.json --solver magic --out out.h5");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_EQ(fs::last_write_time(path("out.h5")), before);
+  EXPECT_FALSE(fs::exists(path("out.h5.tmp")));
+}
+
+}  // namespace
+}  // namespace minv
+
+namespace minv {
+namespace {
+
+TEST_F(CliRoundTrip, FlopsPrintsEveryStageOfEverySolver) {
+  const CliRun r = minv("flops --solver all --topology serial --n 100");
+  ASSERT_EQ(r.status, 0) << r.err;
+  for (const std::string& name : solverNames()) EXPECT_NE(r.out.find(name), std::string::npos);
+  for (const char* stage : {"spatial axes", "isolated inertias", "articulated inertias",
+                            "impulse propagation", "velocity updates", "composite inertias",
+                            "elements of M", "factorization", "inverse from factor",
+                            "documented, LAWN 41", "abi/proc"})
+    EXPECT_NE(r.out.find(stage), std::string::npos) << stage;
+  // ltdl's factorization of a 100-chain: Σ d(d−1)/2 = 101·100·99/6 = 166650 multiplications.
+  EXPECT_NE(r.out.find(" 166650 "), std::string::npos) << r.out;
+}
+
+TEST_F(CliRoundTrip, FlopsExperimentWritesItsFile) {
+  const CliRun r = minv("experiment flops --max-n 8 --out flops.h5");
+  ASSERT_EQ(r.status, 0) << r.err;
+  H5File f(path("flops.h5"));
+  EXPECT_TRUE(f.has("/serial_fixed/abi/total/mul"));
+  EXPECT_TRUE(f.has("/branched_floating/ltdl/factorization/mul_fit_depth"));
+  const CliRun bad = minv("experiment flops --max-n 1 --out bad.h5");
+  EXPECT_EQ(bad.status, 2);
+  EXPECT_FALSE(std::filesystem::exists(path("bad.h5")));
+}
+
+}  // namespace
+}  // namespace minv

@@ -1,0 +1,355 @@
+// The HDF5 writer: what it writes is read back with the plain HDF5 C API (not the writer's code)
+// and compared value by value: row-major matrices, int64, UTF-8 strings, attributes; the
+// tmp + rename commit; append mode with resumable points, also across a killed process.
+#include "experiments/lib/h5writer.hpp"
+
+#include <gtest/gtest.h>
+#include <stdlib.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <csignal>
+#include <filesystem>
+#include <regex>
+
+#include "experiments/lib/provenance.hpp"
+
+namespace minv {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A fresh temporary directory per test, removed afterwards.
+class H5Dir {
+ public:
+  H5Dir() {
+    std::string tmpl = (fs::temp_directory_path() / "minv_h5_XXXXXX").string();
+    if (!mkdtemp(tmpl.data())) throw std::runtime_error("mkdtemp failed");
+    dir_ = tmpl;
+  }
+  ~H5Dir() {
+    std::error_code ec;
+    fs::remove_all(dir_, ec);
+  }
+  std::string operator/(const std::string& name) const { return (dir_ / name).string(); }
+
+ private:
+  fs::path dir_;
+};
+
+// Reading, independently of the writer: open, read whole datasets and scalar attributes.
+struct File {
+  hid_t id;
+  explicit File(const std::string& path) {
+    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+    id = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    if (id < 0) throw std::runtime_error("cannot open " + path);
+  }
+  ~File() { H5Fclose(id); }
+};
+
+std::vector<hsize_t> dimsOf(hid_t ds) {
+  const hid_t space = H5Dget_space(ds);
+  std::vector<hsize_t> dims(H5Sget_simple_extent_ndims(space));
+  H5Sget_simple_extent_dims(space, dims.data(), nullptr);
+  H5Sclose(space);
+  return dims;
+}
+
+template <class T>
+std::vector<T> readData(const File& f, const std::string& name, hid_t mem_type,
+                        std::vector<hsize_t>* dims = nullptr) {
+  const hid_t ds = H5Dopen2(f.id, name.c_str(), H5P_DEFAULT);
+  if (ds < 0) throw std::runtime_error("no dataset " + name);
+  const std::vector<hsize_t> d = dimsOf(ds);
+  hsize_t n = 1;
+  for (hsize_t x : d) n *= x;
+  std::vector<T> out(n);
+  if (n > 0) {
+    EXPECT_GE(H5Dread(ds, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data()), 0);
+  }
+  H5Dclose(ds);
+  if (dims) *dims = d;
+  return out;
+}
+
+std::vector<std::string> readStrings(const File& f, const std::string& name) {
+  const hid_t ds = H5Dopen2(f.id, name.c_str(), H5P_DEFAULT);
+  const hid_t type = H5Tcopy(H5T_C_S1);
+  H5Tset_size(type, H5T_VARIABLE);
+  H5Tset_cset(type, H5T_CSET_UTF8);
+  const hsize_t n = dimsOf(ds).at(0);
+  std::vector<char*> raw(n);
+  EXPECT_GE(H5Dread(ds, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, raw.data()), 0);
+  std::vector<std::string> out(raw.begin(), raw.end());
+  const hid_t space = H5Dget_space(ds);
+  H5Dvlen_reclaim(type, space, H5P_DEFAULT, raw.data());
+  H5Sclose(space);
+  H5Tclose(type);
+  H5Dclose(ds);
+  return out;
+}
+
+template <class T>
+T readAttr(const File& f, const std::string& obj, const std::string& name, hid_t mem_type) {
+  const hid_t a = H5Aopen_by_name(f.id, obj.c_str(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT);
+  if (a < 0) throw std::runtime_error("no attribute " + obj + "@" + name);
+  T v{};
+  EXPECT_GE(H5Aread(a, mem_type, &v), 0);
+  H5Aclose(a);
+  return v;
+}
+
+std::string readStringAttr(const File& f, const std::string& obj, const std::string& name) {
+  const hid_t type = H5Tcopy(H5T_C_S1);
+  H5Tset_size(type, H5T_VARIABLE);
+  char* raw = readAttr<char*>(f, obj, name, type);
+  std::string s = raw ? raw : "";
+  H5free_memory(raw);
+  H5Tclose(type);
+  return s;
+}
+
+// The file type of a dataset: class and size, and whether a string is variable-length UTF-8.
+H5T_class_t classOf(const File& f, const std::string& name, std::size_t* size = nullptr) {
+  const hid_t ds = H5Dopen2(f.id, name.c_str(), H5P_DEFAULT);
+  const hid_t t = H5Dget_type(ds);
+  const H5T_class_t c = H5Tget_class(t);
+  if (size) *size = H5Tget_size(t);
+  if (c == H5T_STRING) {
+    EXPECT_TRUE(H5Tis_variable_str(t) > 0) << name;
+    EXPECT_EQ(H5Tget_cset(t), H5T_CSET_UTF8) << name;
+  }
+  H5Tclose(t);
+  H5Dclose(ds);
+  return c;
+}
+
+// Every kind of dataset and attribute, committed, then read back.
+TEST(H5Writer, WritesDatasetsAndAttributesReadBackByTheCApi) {
+  H5Dir dir;
+  const std::string path = dir / "out.h5";
+  Eigen::MatrixXd m(3, 4);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 4; ++j) m(i, j) = 10 * i + j + 0.5;
+  Eigen::VectorXd v(5);
+  v << 1.0, -2.5, 1e-300, 3e300, 0.1;
+  const std::vector<int> ints = {-1, 0, 7, 2147483647};
+  const std::vector<std::string> strs = {"j0", "θ_ü", "", "a much longer name with spaces"};
+  {
+    H5Writer w(path);
+    EXPECT_EQ(w.writingPath(), path + ".tmp");
+    w.writeMatrix("M", m);
+    w.writeVector("v", v);
+    w.writeIntVector("ints", ints);
+    w.writeStrings("names", strs);
+    w.writeVector("empty", Eigen::VectorXd());
+    w.writeMatrix("a/b/deep", m.transpose());  // missing groups are created
+    w.createGroup("g/h");
+    EXPECT_TRUE(w.hasGroup("g"));
+    EXPECT_TRUE(w.hasGroup("/g/h/"));
+    EXPECT_FALSE(w.hasGroup("M"));  // a dataset, not a group
+    EXPECT_FALSE(w.hasGroup("nope/x"));
+    w.setAttribute("/", "pi", 3.25);
+    w.setAttribute("/", "big", std::int64_t{-1} << 40);
+    w.setAttribute("/", "small", 42);
+    w.setAttribute("/", "seed", std::uint64_t{18446744073709551615ull});
+    w.setAttribute("/", "text", "héllo");
+    w.setAttribute("g/h", "where", std::string("nested"));
+    w.setAttribute("M", "on_dataset", 1.5);
+    w.setAttribute("/", "pi", 2.0);  // overwritten
+    EXPECT_TRUE(fs::exists(path + ".tmp"));
+    EXPECT_FALSE(fs::exists(path));
+    w.commit();
+  }
+  EXPECT_TRUE(fs::exists(path));
+  EXPECT_FALSE(fs::exists(path + ".tmp"));
+
+  File f(path);
+  // Matrix: [rows, cols], row-major, float64.
+  std::vector<hsize_t> dims;
+  std::vector<double> md = readData<double>(f, "M", H5T_NATIVE_DOUBLE, &dims);
+  ASSERT_EQ(dims, (std::vector<hsize_t>{3, 4}));
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 4; ++j) EXPECT_EQ(md[i * 4 + j], m(i, j));
+  std::size_t size = 0;
+  EXPECT_EQ(classOf(f, "M", &size), H5T_FLOAT);
+  EXPECT_EQ(size, 8u);
+  md = readData<double>(f, "a/b/deep", H5T_NATIVE_DOUBLE, &dims);
+  ASSERT_EQ(dims, (std::vector<hsize_t>{4, 3}));
+  EXPECT_EQ(md[1 * 3 + 2], m(2, 1));
+  // Vector, int64, strings, empty.
+  const std::vector<double> vd = readData<double>(f, "v", H5T_NATIVE_DOUBLE, &dims);
+  ASSERT_EQ(dims, (std::vector<hsize_t>{5}));
+  for (int i = 0; i < 5; ++i) EXPECT_EQ(vd[i], v(i));
+  EXPECT_EQ(readData<std::int64_t>(f, "ints", H5T_NATIVE_INT64),
+            (std::vector<std::int64_t>{-1, 0, 7, 2147483647}));
+  EXPECT_EQ(classOf(f, "ints", &size), H5T_INTEGER);
+  EXPECT_EQ(size, 8u);
+  EXPECT_EQ(classOf(f, "names"), H5T_STRING);
+  EXPECT_EQ(readStrings(f, "names"), strs);
+  readData<double>(f, "empty", H5T_NATIVE_DOUBLE, &dims);
+  EXPECT_EQ(dims, (std::vector<hsize_t>{0}));
+  // Attributes on the root, a nested group and a dataset.
+  EXPECT_EQ(readAttr<double>(f, "/", "pi", H5T_NATIVE_DOUBLE), 2.0);
+  EXPECT_EQ(readAttr<std::int64_t>(f, "/", "big", H5T_NATIVE_INT64), std::int64_t{-1} << 40);
+  EXPECT_EQ(readAttr<std::int64_t>(f, "/", "small", H5T_NATIVE_INT64), 42);
+  EXPECT_EQ(readAttr<std::uint64_t>(f, "/", "seed", H5T_NATIVE_UINT64), 18446744073709551615ull);
+  EXPECT_EQ(readStringAttr(f, "/", "text"), "héllo");
+  EXPECT_EQ(readStringAttr(f, "/g/h", "where"), "nested");
+  EXPECT_EQ(readAttr<double>(f, "/M", "on_dataset", H5T_NATIVE_DOUBLE), 1.5);
+}
+
+// No commit: neither the tmp file nor the result remains; an existing result is untouched.
+TEST(H5Writer, UncommittedWriterLeavesNoFile) {
+  H5Dir dir;
+  const std::string path = dir / "out.h5";
+  {
+    H5Writer w(path);
+    w.writeVector("v", Eigen::VectorXd::Ones(3));
+    EXPECT_TRUE(fs::exists(path + ".tmp"));
+  }
+  EXPECT_FALSE(fs::exists(path));
+  EXPECT_FALSE(fs::exists(path + ".tmp"));
+  // An older committed result survives a failed rewrite.
+  {
+    H5Writer w(path);
+    w.setAttribute("/", "version", 1);
+    w.commit();
+  }
+  {
+    H5Writer w(path);
+    w.setAttribute("/", "version", 2);
+  }
+  File f(path);
+  EXPECT_EQ(readAttr<std::int64_t>(f, "/", "version", H5T_NATIVE_INT64), 1);
+  EXPECT_FALSE(fs::exists(path + ".tmp"));
+}
+
+// Failures throw std::runtime_error with a telling message, and HDF5 prints nothing.
+TEST(H5Writer, FailuresThrowClearMessagesSilently) {
+  H5Dir dir;
+  testing::internal::CaptureStderr();
+  try {
+    H5Writer bad(dir / "no/such/dir/out.h5");
+    ADD_FAILURE() << "created a file in a missing directory";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("out.h5.tmp"), std::string::npos) << e.what();
+  }
+  H5Writer w(dir / "out.h5");
+  w.writeVector("v", Eigen::VectorXd::Ones(2));
+  try {
+    w.writeVector("v", Eigen::VectorXd::Ones(2));
+    ADD_FAILURE() << "wrote a dataset twice";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("'/v'"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(w.setAttribute("missing/group", "x", 1.0), std::runtime_error);
+  EXPECT_THROW(w.createGroup("v"), std::runtime_error);  // a dataset has that name
+  w.commit();
+  EXPECT_THROW(w.writeVector("u", Eigen::VectorXd::Ones(2)), std::runtime_error);
+  EXPECT_THROW(w.commit(), std::runtime_error);
+  EXPECT_EQ(testing::internal::GetCapturedStderr(), "");
+}
+
+// Append mode: finished points survive reopening; an unfinished one is invisible and redone.
+TEST(H5Writer, AppendModeKeepsEarlierPointsAndResumes) {
+  H5Dir dir;
+  const std::string path = dir / "sweep.h5";
+  {
+    H5Writer w = H5Writer::append(path);  // creates the file
+    EXPECT_EQ(w.writingPath(), path);
+    w.setAttribute("/", "sweep", "test");
+    const std::string g = w.beginPoint("points/n10");
+    w.writeVector(g + "/t", Eigen::VectorXd::Constant(2, 10.0));
+    w.endPoint("points/n10");
+    EXPECT_TRUE(w.hasGroup("points/n10"));
+  }  // no commit needed in append mode
+  ASSERT_TRUE(fs::exists(path));
+  {
+    H5Writer w = H5Writer::append(path);  // reopens
+    EXPECT_TRUE(w.hasGroup("points/n10"));
+    EXPECT_FALSE(w.hasGroup("points/n20"));
+    const std::string g = w.beginPoint("points/n20");
+    w.writeVector(g + "/t", Eigen::VectorXd::Constant(2, 20.0));
+    w.endPoint("points/n20");
+    // A point begun but never finished (as if the run died here).
+    const std::string h = w.beginPoint("points/n30");
+    w.writeVector(h + "/t", Eigen::VectorXd::Constant(2, -1.0));
+  }
+  {
+    H5Writer w = H5Writer::append(path);
+    EXPECT_FALSE(w.hasGroup("points/n30"));  // resume redoes it
+    const std::string g = w.beginPoint("points/n30");
+    w.writeVector(g + "/t", Eigen::VectorXd::Constant(2, 30.0));
+    w.endPoint("points/n30");
+    w.commit();
+  }
+  File f(path);
+  EXPECT_EQ(readStringAttr(f, "/", "sweep"), "test");
+  for (int n : {10, 20, 30})
+    EXPECT_EQ(readData<double>(f, "points/n" + std::to_string(n) + "/t", H5T_NATIVE_DOUBLE),
+              std::vector<double>(2, n));
+  EXPECT_LT(H5Lexists(f.id, "/points/n30.partial", H5P_DEFAULT), 1);
+}
+
+// A process killed right after a point (no close, no destructors) keeps that point.
+TEST(H5Writer, AppendModeSurvivesAKilledProcess) {
+  H5Dir dir;
+  const std::string path = dir / "killed.h5";
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    try {
+      H5Writer w = H5Writer::append(path);
+      const std::string g = w.beginPoint("p0");
+      w.writeMatrix(g + "/x", Eigen::MatrixXd::Identity(3, 3));
+      w.endPoint("p0");
+      const std::string h = w.beginPoint("p1");
+      w.writeMatrix(h + "/x", Eigen::MatrixXd::Identity(3, 3));
+      raise(SIGKILL);
+    } catch (...) {
+    }
+    _exit(3);
+  }
+  int status = 0;
+  waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFSIGNALED(status));
+  {
+    File f(path);
+    EXPECT_EQ(readData<double>(f, "p0/x", H5T_NATIVE_DOUBLE).size(), 9u);
+  }
+  H5Writer w = H5Writer::append(path);
+  EXPECT_TRUE(w.hasGroup("p0"));
+  EXPECT_FALSE(w.hasGroup("p1"));
+}
+
+// Provenance: every attribute present and plausible.
+TEST(H5Provenance, WritesAllAttributes) {
+  H5Dir dir;
+  const std::string path = dir / "prov.h5";
+  {
+    H5Writer w(path);
+    writeProvenance(w);
+    writeProvenance(w, "sub/group");
+    w.commit();
+  }
+  File f(path);
+  for (const char* obj : {"/", "/sub/group"}) {
+    for (const char* name :
+         {"git_sha", "compiler", "build_flags", "minv_version", "cpu_model", "hostname"})
+      EXPECT_FALSE(readStringAttr(f, obj, name).empty()) << name;
+    EXPECT_EQ(readStringAttr(f, obj, "blas_library").rfind("OpenBLAS", 0), 0u);
+    EXPECT_TRUE(std::regex_match(readStringAttr(f, obj, "date_utc"),
+                                 std::regex(R"(\d{4}-\d\d-\d\dT\d\d:\d\d:\d\dZ)")));
+    EXPECT_GT(readAttr<std::int64_t>(f, obj, "cpu_cores", H5T_NATIVE_INT64), 0);
+    EXPECT_GT(readAttr<std::int64_t>(f, obj, "blas_threads", H5T_NATIVE_INT64), 0);
+    EXPECT_GT(readAttr<std::int64_t>(f, obj, "omp_max_threads", H5T_NATIVE_INT64), 0);
+  }
+  const std::string line = provenanceSummary();
+  EXPECT_EQ(line.find('\n'), std::string::npos);
+  EXPECT_NE(line.find("OpenBLAS"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace minv
