@@ -38,6 +38,13 @@ std::vector<StageCount> LapackSolver::countStages(const Model& model, const Eige
   return out;
 }
 
+extern "C" void openblas_set_num_threads(int);
+
+void LapackSolver::setThreads(int n) {
+  threads_ = n < 1 ? 1 : n;
+  openblas_set_num_threads(threads_);
+}
+
 void LapackSolver::factor() {
   // M = L Lᵀ, in place in the lower triangle.
   const lapack_int n = static_cast<lapack_int>(M_.rows());

@@ -13,12 +13,17 @@ class LapackSolver final : public CrbaSolver {
   // (LAWN 41, which books divisions as multiplications and square roots apart).
   static std::vector<StageCount> countStages(const Model& model, const Eigen::VectorXd& q, int m);
 
+  LapackSolver() { setThreads(1); }
+  // OpenBLAS's thread count is process-wide: this sets it for every LAPACK call.
+  void setThreads(int n) override;
+  int threads() const override { return threads_; }
   void inverse(Eigen::MatrixXd& Minv) override;
   void solve(const Eigen::MatrixXd& R, Eigen::MatrixXd& X) override;
 
  private:
   void allocate(const Model&) override {}
   void factor() override;  // in place: M_'s lower triangle becomes L
+  int threads_ = 1;
 };
 
 }  // namespace minv

@@ -25,6 +25,10 @@ class Solver {
   // Whether this solver can handle the tree at all (a peer library may have limits); if not,
   // *why says so. The conformance suite and the experiments skip it with that reason.
   virtual bool supports(const Model& model, std::string* why) const { return true; }
+  // Threads this solver may use from now on (default 1). Solvers without a parallel path
+  // ignore it; `threads()` says what they will actually use.
+  virtual void setThreads(int n) {}
+  virtual int threads() const { return 1; }
   // Allocate for this tree; the model must outlive the solver.
   virtual void prepare(const Model& model) = 0;
   // Per configuration q (size model.nq()).
