@@ -16,6 +16,8 @@
 #include <set>
 #include <sstream>
 
+#include "generators/mjcf.hpp"
+
 namespace minv {
 
 namespace {
@@ -451,10 +453,11 @@ void writeUrdf(const Model& m, std::ostream& out, const std::string& robot_name)
 Model loadModel(const std::string& path, bool floating_base) {
   // Dispatch on the extension.
   const std::string ext = extension(path);
-  if (ext != ".json" && ext != ".urdf")
+  if (ext != ".json" && ext != ".urdf" && ext != ".xml")
     throw ModelError("'" + path + "': unknown model file extension '" + ext +
-                     "' (expected .json or .urdf)");
+                     "' (expected .json, .urdf or .xml for MJCF)");
   const std::string text = readFile(path);
+  if (ext == ".xml") return loadMjcf(path, floating_base);
   if (ext == ".urdf") return readUrdf(text, path, floating_base);
   // JSON, then a floating base if asked for and missing.
   std::istringstream in(text);

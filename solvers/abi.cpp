@@ -10,11 +10,16 @@ std::vector<StageCount> AbiSolver::countStages(const Model& model, const Eigen::
   return stageCounts(mark);
 }
 
+void AbiSolver::setThreads(int n) {
+  threads_ = std::max(1, n);
+  if (model_) ws_ = std::make_unique<AbiWorkspace<double>>(*model_, threads_);
+}
+
 void AbiSolver::prepare(const Model& model) {
   model_ = &model;
   kin_ = std::make_unique<Kinematics<double>>(model);
   art_ = std::make_unique<Articulated<double>>(model);
-  ws_ = std::make_unique<AbiWorkspace<double>>(model);
+  ws_ = std::make_unique<AbiWorkspace<double>>(model, threads_);
 }
 
 void AbiSolver::configure(const Eigen::VectorXd& q) {
@@ -22,7 +27,9 @@ void AbiSolver::configure(const Eigen::VectorXd& q) {
   articulatedInertias<double>(*model_, *kin_, *art_);
 }
 
-void AbiSolver::inverse(Eigen::MatrixXd& Minv) { abiInverse<double>(*model_, *kin_, *art_, *ws_, Minv); }
+void AbiSolver::inverse(Eigen::MatrixXd& Minv) {
+  abiInverse<double>(*model_, *kin_, *art_, *ws_, Minv);
+}
 
 void AbiSolver::solve(const Eigen::MatrixXd& R, Eigen::MatrixXd& X) {
   abiSolve<double>(*model_, *kin_, *art_, *ws_, R, X);
