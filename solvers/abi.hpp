@@ -69,32 +69,43 @@ struct AbiWorkspace {
 };
 
 // Backward sweep from body `last` to the roots: u_i = r_i − S_iᵀ Y_i, Y_λ(i) += Y_i + U_i D_i⁻¹ u_i.
-// On entry ws.u holds r for the DOFs of bodies 0 … last and ws.Y is zero there.
-template <class T, int W>
+// r is either the unit impulses e_{c0+w} (Unit; ws.u is then written, not read) or held in
+// ws.u on entry. ws.Y is zero on entry; each Y_i is zeroed again once used, so the next block
+// starts clean without a pass of its own.
+template <class T, int W, bool Unit>
 void abiBackward(const Model& model, const Kinematics<T>& kin, const Articulated<T>& art,
-                 AbiLanes<T, W>& ws, int last) {
+                 AbiLanes<T, W>& ws, int last, int c0 = 0, int width = 0) {
   for (int i = last; i >= 0; --i) {
     const int v = model.vIdx(i), k = model.nvOf(i), p = model.parent(i);
     auto& Y = ws.Y[i];
     for (int j = 0; j < k; ++j) {
       // u = r − S_jᵀ Y
       auto& u = ws.u[v + j];
-      for (int r = 0; r < 6; ++r) u -= kin.S(r, v + j) * Y.row(r);
+      typename AbiLanes<T, W>::Lane sy = kin.S(0, v + j) * Y.row(0);
+      for (int r = 1; r < 6; ++r) sy += kin.S(r, v + j) * Y.row(r);
+      if constexpr (Unit) {
+        u = -sy;
+        if (static_cast<unsigned>(v + j - c0) < static_cast<unsigned>(width)) u(v + j - c0) += T(1);
+      } else {
+        u -= sy;
+      }
     }
-    if (p < 0) continue;
-    // Y_λ(i) += Y_i + Σ_j (U D⁻¹)_j u_j
-    auto& Yp = ws.Y[p];
-    Yp += Y;
-    for (int j = 0; j < k; ++j)
-      for (int r = 0; r < 6; ++r) Yp.row(r) += art.UDinv(r, v + j) * ws.u[v + j];
+    if (p >= 0) {
+      // Y_λ(i) += Y_i + Σ_j (U D⁻¹)_j u_j
+      auto& Yp = ws.Y[p];
+      Yp += Y;
+      for (int j = 0; j < k; ++j)
+        for (int r = 0; r < 6; ++r) Yp.row(r) += art.UDinv(r, v + j) * ws.u[v + j];
+    }
+    Y.setZero();
   }
 }
 
-// Forward sweep over bodies 0 … last: Δq̇_i = D_i⁻¹ u_i − (U_i D_i⁻¹)ᵀ Δv_λ(i) (into ws.u),
-// Δv_i = Δv_λ(i) + S_i Δq̇_i.
+// Forward sweep over bodies 0 … last: Δq̇_i = D_i⁻¹ u_i − (U_i D_i⁻¹)ᵀ Δv_λ(i), stored for
+// lane w < width at out[v + w·ld] (column w of the output), Δv_i = Δv_λ(i) + S_i Δq̇_i.
 template <class T, int W>
 void abiForward(const Model& model, const Kinematics<T>& kin, const Articulated<T>& art,
-                AbiLanes<T, W>& ws, int last) {
+                AbiLanes<T, W>& ws, int last, T* out, std::size_t ld, int width) {
   using Lane = typename AbiLanes<T, W>::Lane;
   for (int i = 0; i <= last; ++i) {
     const int v = model.vIdx(i), k = model.nvOf(i), p = model.parent(i);
@@ -116,6 +127,9 @@ void abiForward(const Model& model, const Kinematics<T>& kin, const Articulated<
       }
       for (int j = 0; j < k; ++j) ws.u[v + j] = qd[j];
     }
+    // Store Δq̇ column by column.
+    for (int j = 0; j < k; ++j)
+      for (int w = 0; w < width; ++w) out[v + j + w * ld] = ws.u[v + j](w);
     // Δv_i = Δv_λ(i) + S_i Δq̇_i
     for (int r = 0; r < 6; ++r) {
       Lane row = kin.S(r, v) * ws.u[v];
@@ -128,36 +142,33 @@ void abiForward(const Model& model, const Kinematics<T>& kin, const Articulated<
   }
 }
 
-// Columns c0 … c0+W−1 (those below nv) of M⁻¹, rows of bodies 0 … b(last column), written
-// transposed as X(c, rows): by symmetry that is the lower triangle, contiguous per row.
+// Columns c0 … c0+W−1 (those below nv) of M⁻¹, rows of bodies 0 … b(last column): the upper
+// triangle of those columns (and a few entries below it, overwritten by the mirror).
 template <class T, int W, class Mark>
 void abiInverseBlock(const Model& model, const Kinematics<T>& kin, const Articulated<T>& art,
                      AbiLanes<T, W>& ws, int c0, MatX<T>& X, Mark& mark) {
   const int nv = model.nv(), width = std::min(W, nv - c0);
   const int last = model.dofBody(c0 + width - 1);
-  const int lastDof = model.vIdx(last) + model.nvOf(last);
-  // r: the unit impulses, one per lane; Y = 0.
-  for (int i = 0; i <= last; ++i) ws.Y[i].setZero();
-  for (int v = 0; v < lastDof; ++v) ws.u[v].setZero();
-  for (int w = 0; w < width; ++w) ws.u[c0 + w](w) = T(1);
-  abiBackward(model, kin, art, ws, last);
+  // The unit impulses e_{c0+w}, one per lane, up to the roots; then Δq̇ of bodies 0 … last.
+  abiBackward<T, W, true>(model, kin, art, ws, last, c0, width);
   mark("impulse propagation");
-  abiForward(model, kin, art, ws, last);
+  abiForward<T, W>(model, kin, art, ws, last, &X(0, c0), X.rows(), width);
   mark("velocity updates");
-  // Store Δq̇ of DOF v for column c0 + w at X(c0 + w, v).
-  for (int v = 0; v < lastDof; ++v)
-    for (int w = 0; w < width; ++w) X(c0 + w, v) = ws.u[v](w);
 }
 
-// X = Xᵀ from the lower triangle, in tiles that stay in cache.
+// The lower triangle from the upper one, X(i, j) = X(j, i) for i > j, in square tiles that
+// stay in cache (both the read and the written tile).
 template <class T>
-void mirrorLower(MatX<T>& X) {
-  constexpr int B = 64;
+void mirrorUpper(MatX<T>& X) {
+  constexpr int B = 32;
   const int n = static_cast<int>(X.rows());
+  T* x = X.data();
   for (int jb = 0; jb < n; jb += B)
-    for (int ib = jb; ib < n; ib += B)
-      for (int j = jb; j < std::min(jb + B, n); ++j)
-        for (int i = std::max(ib, j + 1); i < std::min(ib + B, n); ++i) X(j, i) = X(i, j);
+    for (int ib = jb; ib < n; ib += B) {
+      const int je = std::min(jb + B, n), ie = std::min(ib + B, n);
+      for (int j = jb; j < je; ++j)
+        for (int i = std::max(ib, j + 1); i < ie; ++i) x[i + std::size_t(j) * n] = x[j + std::size_t(i) * n];
+    }
 }
 
 // Stages "impulse propagation" and "velocity updates" for all columns: Minv = M⁻¹.
@@ -176,7 +187,7 @@ void abiInverse(const Model& model, const Kinematics<T>& kin, const Articulated<
   } else {
     for (int b = 0; b < blocks; ++b) abiInverseBlock<T, W>(model, kin, art, ws.wide[0], b * W, Minv, mark);
   }
-  mirrorLower(Minv);
+  mirrorUpper(Minv);
 }
 
 // Columns c0 … c0+W−1 of X = M⁻¹R: the full backward sweep, then the full forward sweep.
@@ -185,18 +196,15 @@ void abiSolveBlock(const Model& model, const Kinematics<T>& kin, const Articulat
                    AbiLanes<T, W>& ws, const MatX<T>& R, int c0, MatX<T>& X, Mark& mark) {
   const int nb = model.nb(), nv = model.nv();
   const int width = std::min<int>(W, static_cast<int>(R.cols()) - c0);
-  // r: the right-hand sides, one per lane (unused lanes zero); Y = 0.
-  for (int i = 0; i < nb; ++i) ws.Y[i].setZero();
+  // r: the right-hand sides, one per lane (unused lanes zero); Y is zero between blocks.
   for (int v = 0; v < nv; ++v) {
     ws.u[v].setZero();
     for (int w = 0; w < width; ++w) ws.u[v](w) = R(v, c0 + w);
   }
-  abiBackward(model, kin, art, ws, nb - 1);
+  abiBackward<T, W, false>(model, kin, art, ws, nb - 1);
   mark("impulse propagation");
-  abiForward(model, kin, art, ws, nb - 1);
+  abiForward<T, W>(model, kin, art, ws, nb - 1, &X(0, c0), X.rows(), width);
   mark("velocity updates");
-  for (int w = 0; w < width; ++w)
-    for (int v = 0; v < nv; ++v) X(v, c0 + w) = ws.u[v](w);
 }
 
 // X = M⁻¹R, W columns at a time (one at a time when R has fewer columns than half a block).

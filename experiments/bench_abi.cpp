@@ -1,0 +1,280 @@
+// Issue 7's benchmarks: `abi` against the field, side by side in one run, as ratios.
+//
+//   build/bench_abi [--full] [--out results/perf.h5] [--memory-n N] [benchmark flags]
+//
+// Google Benchmark times, single thread (BLAS threads 1) unless stated, medians of 5
+// repetitions, each of them the pipeline from a configuration q: configure(q) (kinematics +
+// CRBA + factor, or kinematics + articulated inertias) then inverse() for M⁻¹ or solve(R) for
+// M⁻¹R with m ∈ {1, 8, 64}. Beside them: a store of n² doubles (the memory floor: the time to
+// write the output at all), OpenBLAS dgemm's rate on the same core, abi's counted flops
+// (its own kernels on the counting scalar) per second, and abi on 2 threads.
+// Every raw repetition, the medians, the ratios and the provenance go to one HDF5 file.
+// --memory-n N inverts one serial chain of n = N (N² doubles of output) and reports the peak
+// resident memory beyond the output: the scratch is O(n·W), not O(n²).
+#include <benchmark/benchmark.h>
+#include <cblas.h>
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "experiments/lib/h5writer.hpp"
+#include "experiments/lib/provenance.hpp"
+#include "generators/random_tree.hpp"
+#include "solvers/abi.hpp"
+#include "solvers/solver.hpp"
+
+namespace minv {
+namespace {
+
+// One problem: a tree, its configuration and right-hand sides (built outside timed regions).
+struct Problem {
+  Model model;
+  Eigen::VectorXd q;
+};
+
+const Problem& problem(Topology t, int n) {
+  static std::map<std::pair<int, int>, std::unique_ptr<Problem>> cache;
+  auto& p = cache[{static_cast<int>(t), n}];
+  if (!p) {
+    Model m = randomTree({t, n, 1, false, JointSet::Revolute});
+    Eigen::VectorXd q = randomConfiguration(m, 1);
+    p = std::make_unique<Problem>(Problem{std::move(m), std::move(q)});
+  }
+  return *p;
+}
+
+// Which solvers reach which n, as data: dense-cubic peers stop early in quick mode.
+int maxN(const std::string& solver, bool full) {
+  if (solver == "mujoco") return 512;  // its model compiler is cubic in n (11 s at n = 1000)
+  if (solver == "ltdl") return full ? 2048 : 512;  // cubic on chains: 3.6 s at n = 1024, m = 64
+  return full ? 4096 : 2048;
+}
+
+struct Median {
+  std::vector<double> reps;  // seconds
+  double median = 0;
+};
+std::map<std::string, Median> medians;
+
+// Collects every repetition and the median of each benchmark; prints the medians.
+class Collector : public benchmark::ConsoleReporter {
+ public:
+  void ReportRuns(const std::vector<Run>& runs) override {
+    std::vector<Run> shown;
+    for (const Run& r : runs) {
+      std::string name = r.run_name.str();
+      // Google Benchmark appends "/real_time" to benchmarks that use real time.
+      if (const auto at = name.rfind("/real_time"); at != std::string::npos) name.resize(at);
+      const double s = r.GetAdjustedRealTime() * 1e-9;  // time unit is ns
+      if (r.run_type == Run::RT_Iteration) medians[name].reps.push_back(s);
+      if (r.run_type == Run::RT_Aggregate && r.aggregate_name == "median") {
+        medians[name].median = s;
+        shown.push_back(r);
+      }
+    }
+    ConsoleReporter::ReportRuns(shown);
+  }
+};
+
+// The pipeline of one registered solver: configure(q), then inverse (m = 0) or solve.
+void registerSolver(const std::string& solver, Topology t, int n, int m, int threads) {
+  std::string name = std::string(m == 0 ? "inverse/" : "solve/") + topologyName(t) + "/" +
+                     solver + (threads > 1 ? "@" + std::to_string(threads) : "") + "/" +
+                     std::to_string(n) + (m ? "/" + std::to_string(m) : "");
+  benchmark::RegisterBenchmark(name.c_str(), [=](benchmark::State& state) {
+    const Problem& p = problem(t, n);
+    auto s = makeSolver(solver);
+    s->setThreads(threads);
+    s->prepare(p.model);
+    const int nv = p.model.nv();
+    Eigen::MatrixXd X(nv, m ? m : nv), R = Eigen::MatrixXd::Random(nv, m ? m : 1);
+    for (auto _ : state) {
+      s->configure(p.q);
+      if (m == 0)
+        s->inverse(X);
+      else
+        s->solve(R, X);
+      benchmark::DoNotOptimize(X.data());
+      benchmark::ClobberMemory();
+    }
+    s->setThreads(1);
+  })->Unit(benchmark::kNanosecond)->UseRealTime();
+}
+
+void registerAll(bool full) {
+  const std::vector<int> sizes = full ? std::vector<int>{8, 16, 32, 64, 128, 256, 512, 1024,
+                                                         2048, 4096}
+                                      : std::vector<int>{8, 16, 32, 64, 128, 256, 512, 1024,
+                                                         2048};
+  std::vector<std::string> peers;
+  for (const std::string& s : {"abi", "lapack", "eigen", "ltdl", "mujoco"})
+    if (std::find(solverNames().begin(), solverNames().end(), s) != solverNames().end())
+      peers.push_back(s);
+  for (Topology t : {Topology::Serial, Topology::Branched})
+    for (int n : sizes) {
+      for (const std::string& s : peers) {
+        if (n > maxN(s, full)) continue;
+        registerSolver(s, t, n, 0, 1);
+        for (int m : {1, 8, 64}) registerSolver(s, t, n, m, 1);
+      }
+      if (n >= 256) registerSolver("abi", t, n, 0, 2);
+    }
+  for (int n : sizes) {
+    // The memory floor: write n² doubles.
+    benchmark::RegisterBenchmark(("store/" + std::to_string(n)).c_str(), [n](benchmark::State& st) {
+      Eigen::MatrixXd X(n, n);
+      double v = 0;
+      for (auto _ : st) {
+        X.setConstant(v += 1);
+        benchmark::DoNotOptimize(X.data());
+        benchmark::ClobberMemory();
+      }
+    })->Unit(benchmark::kNanosecond)->UseRealTime();
+    // OpenBLAS dgemm, n×n×n, one thread.
+    if (n >= 64)
+      benchmark::RegisterBenchmark(("dgemm/" + std::to_string(n)).c_str(), [n](benchmark::State& st) {
+        Eigen::MatrixXd A = Eigen::MatrixXd::Random(n, n), B = A, C(n, n);
+        for (auto _ : st) {
+          cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, n, n, n, 1.0, A.data(), n,
+                      B.data(), n, 0.0, C.data(), n);
+          benchmark::DoNotOptimize(C.data());
+        }
+      })->Unit(benchmark::kNanosecond)->UseRealTime();
+  }
+}
+
+// abi's counted floating-point operations (all but comparisons) for the M⁻¹ pipeline.
+double abiFlops(Topology t, int n) {
+  const Problem& p = problem(t, n);
+  double f = 0;
+  for (const StageCount& s : AbiSolver::countStages(p.model, p.q, 0)) f += s.counts.flops();
+  return f;
+}
+
+double med(const std::string& name) {
+  auto it = medians.find(name);
+  return it == medians.end() ? 0 : it->second.median;
+}
+
+// The ratio table and the result file.
+void report(bool full, const std::string& out) {
+  H5Writer h5(out);
+  writeProvenance(h5);
+  h5.setAttribute("/", "experiment", "perf");
+  h5.setAttribute("/", "mode", full ? "full" : "quick");
+  for (const auto& [name, m] : medians) {
+    h5.writeVector("runs/" + name + "/repetitions_s", m.reps);
+    h5.setAttribute("runs/" + name, "median_s", m.median);
+  }
+  for (Topology t : {Topology::Serial, Topology::Branched}) {
+    const std::string T = topologyName(t);
+    std::printf("\n%s, full M^-1 (configure + inverse), medians; ratios = peer time / abi time\n",
+                T.c_str());
+    std::printf("%6s %10s %8s %8s %8s %8s %9s %7s %8s %8s %9s\n", "n", "abi_us", "lapack", "eigen",
+                "ltdl", "mujoco", "abi_GF/s", "%dgemm", "abi/store", "2thr", "solve8:lap");
+    std::vector<double> ns, cols[10];
+    for (int n : {8, 16, 32, 64, 128, 256, 512, 1024, 2048, 4096}) {
+      const std::string N = std::to_string(n);
+      const double abi = med("inverse/" + T + "/abi/" + N);
+      if (abi == 0) continue;
+      auto ratio = [&](const std::string& s) {
+        const double x = med("inverse/" + T + "/" + s + "/" + N);
+        return x > 0 ? x / abi : 0.0;
+      };
+      const double gflops = abiFlops(t, n) / abi * 1e-9;
+      const double dg = med("dgemm/" + N);
+      const double dgemm_rate = dg > 0 ? 2.0 * n * n * n / dg * 1e-9 : 0;
+      const double store = med("store/" + N);
+      const double thr2 = med("inverse/" + T + "/abi@2/" + N);
+      const double s8 = med("solve/" + T + "/abi/" + N + "/8");
+      const double l8 = med("solve/" + T + "/lapack/" + N + "/8");
+      const double row[10] = {abi * 1e6, ratio("lapack"), ratio("eigen"), ratio("ltdl"),
+                              ratio("mujoco"), gflops, dgemm_rate > 0 ? 100 * gflops / dgemm_rate : 0,
+                              store > 0 ? abi / store : 0, thr2 > 0 ? abi / thr2 : 0,
+                              s8 > 0 ? l8 / s8 : 0};
+      std::printf("%6d %10.1f %8.2f %8.2f %8.2f %8.2f %9.2f %7.1f %8.2f %8.2f %9.1f\n", n, row[0],
+                  row[1], row[2], row[3], row[4], row[5], row[6], row[7], row[8], row[9]);
+      ns.push_back(n);
+      for (int c = 0; c < 10; ++c) cols[c].push_back(row[c]);
+    }
+    const char* names[10] = {"abi_us", "lapack_over_abi", "eigen_over_abi", "ltdl_over_abi",
+                              "mujoco_over_abi", "abi_gflops", "abi_percent_of_dgemm",
+                              "abi_over_store", "abi_2thread_speedup", "lapack_over_abi_solve8"};
+    h5.writeVector("ratios/" + T + "/n", ns);
+    for (int c = 0; c < 10; ++c) h5.writeVector("ratios/" + T + "/" + names[c], cols[c]);
+    std::printf("(0.00 = not measured at that n)\n");
+  }
+  h5.commit();
+  std::printf("\nwrote %s\n", out.c_str());
+}
+
+// One inverse of an n-chain; peak resident memory beyond the n² output.
+int memoryRun(int n) {
+  const Problem& p = problem(Topology::Serial, n);
+  AbiSolver s;
+  s.prepare(p.model);
+  Eigen::MatrixXd X(n, n);
+  X.setZero();  // touch the output so it is resident before we measure
+  rusage before{};
+  getrusage(RUSAGE_SELF, &before);
+  const auto t0 = std::chrono::steady_clock::now();
+  s.configure(p.q);
+  s.inverse(X);
+  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  rusage after{};
+  getrusage(RUSAGE_SELF, &after);
+  const double out_mib = 8.0 * n * n / (1 << 20);
+  std::printf("memory: n = %d, M^-1 is %.0f MiB; inverse took %.2f s; peak RSS %.0f MiB "
+              "(%.1f MiB beyond the output); rss growth during configure+inverse %.1f MiB; "
+              "finite: %s\n",
+              n, out_mib, secs, after.ru_maxrss / 1024.0, after.ru_maxrss / 1024.0 - out_mib,
+              (after.ru_maxrss - before.ru_maxrss) / 1024.0, X.allFinite() ? "yes" : "no");
+  return X.allFinite() ? 0 : 1;
+}
+
+}  // namespace
+}  // namespace minv
+
+int main(int argc, char** argv) {
+  using namespace minv;
+  bool full = false;
+  int memory_n = 0;
+  std::string out = "results/perf.h5";
+  // Our flags first; the rest go to Google Benchmark.
+  std::vector<char*> rest = {argv[0]};
+  for (int i = 1; i < argc; ++i) {
+    if (!std::strcmp(argv[i], "--full")) {
+      full = true;
+    } else if (!std::strcmp(argv[i], "--out") && i + 1 < argc) {
+      out = argv[++i];
+    } else if (!std::strcmp(argv[i], "--memory-n") && i + 1 < argc) {
+      memory_n = std::atoi(argv[++i]);
+    } else {
+      rest.push_back(argv[i]);
+    }
+  }
+  silenceHdf5Errors();
+  if (memory_n > 0) return memoryRun(memory_n);
+  std::string reps = "--benchmark_repetitions=5", mint = "--benchmark_min_time=0.02";
+  rest.insert(rest.begin() + 1, {reps.data(), mint.data()});
+  int n = static_cast<int>(rest.size());
+  benchmark::Initialize(&n, rest.data());
+  if (benchmark::ReportUnrecognizedArguments(n, rest.data())) return 2;
+  registerAll(full);
+  Collector collector;
+  benchmark::RunSpecifiedBenchmarks(&collector);
+  try {
+    report(full, out);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bench_abi: error: %s\n", e.what());
+    return 2;
+  }
+  return 0;
+}
