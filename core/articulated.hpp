@@ -73,14 +73,23 @@ template <class T>
 void articulatedInertias(const Model& model, const Kinematics<T>& kin, Articulated<T>& art) {
   for (int i = 0; i < model.nb(); ++i) art.IA[i] = kin.I[i];
   for (int i = model.nb() - 1; i >= 0; --i) {
-    const int v = model.vIdx(i), k = model.nvOf(i);
+    const int v = model.vIdx(i), k = model.nvOf(i), p = model.parent(i);
+    if (k == 1) {
+      // One DOF: the same steps on fixed-size vectors, d a scalar.
+      const Vec6<T> U = art.IA[i] * kin.S.col(v);
+      const T dinv = T(1) / kin.S.col(v).dot(U);
+      art.U.col(v) = U;
+      art.Dinv[i](0, 0) = dinv;
+      art.UDinv.col(v) = U * dinv;
+      if (p >= 0) art.IA[p] += art.IA[i] - art.UDinv.col(v) * U.transpose();
+      continue;
+    }
     // U_i = IA_i S_i, D_i = S_iᵀ U_i, D_i⁻¹, U_i D_i⁻¹.
     art.U.middleCols(v, k).noalias() = art.IA[i].lazyProduct(kin.S.middleCols(v, k));
     const MatK<T> D = kin.S.middleCols(v, k).transpose().lazyProduct(art.U.middleCols(v, k));
     spdInverse<T>(D, art.Dinv[i]);
     art.UDinv.middleCols(v, k).noalias() = art.U.middleCols(v, k).lazyProduct(art.Dinv[i]);
     // IA_λ(i) += IA_i − U_i D_i⁻¹ U_iᵀ.
-    const int p = model.parent(i);
     if (p >= 0) {
       art.IA[p] += art.IA[i];
       art.IA[p].noalias() -= art.UDinv.middleCols(v, k).lazyProduct(art.U.middleCols(v, k).transpose());
