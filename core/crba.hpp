@@ -48,4 +48,14 @@ void crba(const Model& model, const Kinematics<T>& kin, std::vector<Mat6<T>>& Ic
   crbaMassMatrix(model, kin, Ic, M);
 }
 
+// M at q in one call. It allocates: for tests, tools and references, not for timed loops.
+inline Eigen::MatrixXd massMatrix(const Model& model, const Eigen::VectorXd& q) {
+  Kinematics<double> kin(model);
+  computeKinematics<double>(model, q, kin);
+  std::vector<Mat6<double>> Ic(model.nb());
+  Eigen::MatrixXd M(model.nv(), model.nv());
+  crba<double>(model, kin, Ic, M);
+  return M;
+}
+
 }  // namespace minv

@@ -5,10 +5,18 @@
 //                 [--joints revolute|mixed] --out FILE.json|FILE.urdf
 //   minv solve --model FILE [--floating-base] [--solver NAME|all] [--q-seed S] [--rhs M]
 //              [--rhs-seed S] --out FILE.h5
+//   minv generate --topology centipede --segments S [--segment-joint yaw|spherical] --out FILE
+//   minv simulate centipede [--segments S] [--steps K] [--dt H] [--solver NAME|test-impulse]
+//                 [--frames F] [--segment-joint yaw|spherical] [--out FILE.h5]   (sim/)
+//   minv simulate sweep [--segments 5,10,20,40] [--solvers abi,lapack,ltdl,test-impulse]
+//                 [--steps K] [--dt H] --out FILE.h5   (Figure 4; appended to and resumed)
 //   minv solvers
 //   minv flops [--solver NAME|all] --topology serial|branched --n N [--floating-base]
 //              [--joints revolute|mixed] [--rhs M] [--seed S]
 //   minv experiment flops [--max-n N] [--seed S] --out FILE.h5
+//   minv experiment accuracy [--mode quick|full|tiny] --out FILE.h5   (experiments/lib/accuracy.hpp)
+//   minv merge --out FILE.h5 SHARD.h5…   (join timing shard files; experiments/lib/timing.hpp)
+// (The timing sweeps themselves run in build/bench_timing, which links Google Benchmark.)
 //
 // Contract: success exits 0. Every failure (bad or missing options, an unreadable or invalid
 // model, an unknown solver, a solver error, a non-finite residual, an I/O error) prints one
@@ -47,11 +55,15 @@
 #include <Eigen/Eigenvalues>
 
 #include "core/crba.hpp"
+#include "experiments/lib/accuracy.hpp"
 #include "experiments/lib/flops.hpp"
 #include "experiments/lib/h5writer.hpp"
 #include "experiments/lib/provenance.hpp"
+#include "experiments/lib/timing.hpp"
+#include "generators/centipede.hpp"
 #include "generators/model_io.hpp"
 #include "generators/random_tree.hpp"
+#include "sim/centipede_run.hpp"
 #include "solvers/solver.hpp"
 
 namespace minv {
@@ -85,8 +97,8 @@ void checkOutputDirectory(const std::string& path) {
 }
 
 struct GenerateOptions {
-  std::string topology, joints = "revolute", out;
-  int n = 0;
+  std::string topology, joints = "revolute", out, segment_joint = "yaw";
+  int n = 0, segments = 0;
   std::uint64_t seed = 1;
   bool floating_base = false;
 };
@@ -109,6 +121,17 @@ std::string topologyOf(const Model& model) {
 // generate: parse the names, build the tree, save it atomically, print one line.
 int runGenerate(const GenerateOptions& o) {
   checkOutputDirectory(o.out);
+  if (o.topology == "centipede") {
+    if (o.segments < 1) throw std::invalid_argument("--segments must be at least 1 for a centipede");
+    CentipedeOptions co;
+    co.segments = o.segments;
+    co.segment_joint = segmentJointFromName(o.segment_joint);
+    const Model model = makeCentipede(co).model;
+    saveModel(model, o.out);
+    std::printf("bodies=%d nv=%d max_depth=%d segments=%d segment_joint=%s file=%s\n", model.nb(),
+                model.nv(), model.maxDepth(), o.segments, o.segment_joint.c_str(), o.out.c_str());
+    return 0;
+  }
   TreeOptions t;
   t.topology = topologyFromName(o.topology);
   t.joints = jointSetFromName(o.joints);
@@ -120,16 +143,6 @@ int runGenerate(const GenerateOptions& o) {
   std::printf("bodies=%d nv=%d max_depth=%d file=%s\n", model.nb(), model.nv(), model.maxDepth(),
               o.out.c_str());
   return 0;
-}
-
-// The joint-space inertia matrix by CRBA at q.
-Eigen::MatrixXd massMatrix(const Model& model, const Eigen::VectorXd& q) {
-  Kinematics<double> kin(model);
-  computeKinematics<double>(model, q, kin);
-  std::vector<Mat6<double>> Ic(model.nb());
-  Eigen::MatrixXd M(model.nv(), model.nv());
-  crba<double>(model, kin, Ic, M);
-  return M;
 }
 
 // The solvers to run: one by name (unknown → std::invalid_argument) or the whole registry.
@@ -319,6 +332,71 @@ int runFlopsExperiment(const ExperimentOptions& o) {
   return 0;
 }
 
+struct AccuracyOptions {
+  std::string mode = "quick", out;
+};
+
+// experiment accuracy: residuals and forward errors vs a long-double reference, vs n.
+int runAccuracyExperiment(const AccuracyOptions& o) {
+  const AccuracySweep sweep = accuracySweep(o.mode);
+  checkOutputDirectory(o.out);
+  runAccuracySweep(sweep, o.out, std::cout);
+  return 0;
+}
+
+struct MergeOptions {
+  std::string out;
+  std::vector<std::string> inputs;
+};
+
+// merge: join shard files of a sweep into one file.
+int runMerge(const MergeOptions& o) {
+  checkOutputDirectory(o.out);
+  for (const std::string& in : o.inputs)
+    if (!std::filesystem::is_regular_file(in))
+      throw std::runtime_error("input file '" + in + "' does not exist");
+  const int points = mergeResultFiles(o.inputs, o.out);
+  std::printf("merged %d points from %zu files into %s\n", points, o.inputs.size(), o.out.c_str());
+  return 0;
+}
+
+struct SimulateOptions {
+  sim::CentipedeRunOptions run;
+  std::string out;
+  sim::CentipedeSweepOptions sweep;
+};
+
+// simulate centipede: one walk, progress on stdout, the net displacement, optionally HDF5.
+int runSimulate(SimulateOptions o) {
+  if (!o.out.empty()) checkOutputDirectory(o.out);
+  std::unique_ptr<H5Writer> h5;
+  if (!o.out.empty()) h5 = std::make_unique<H5Writer>(o.out);
+  const sim::CentipedeRunResult r = sim::runCentipede(o.run, std::cout, h5.get(), "/");
+  std::printf("times (s): dynamics %.3f  collision %.3f  contact matrices %.3f  contact solve "
+              "%.3f  update %.3f  total %.3f\n",
+              r.times.dynamics, r.times.collision, r.times.matrices, r.times.solve, r.times.update,
+              r.times.total());
+  std::printf("contact residuals (max): penetration %.2e m/s  cone %.2e  complementarity %.2e  "
+              "kkt %.2e; pgs iterations max %d, unconverged steps %d\n",
+              r.max_penetration, r.max_cone, r.max_complementarity, r.max_kkt,
+              r.max_pgs_iterations, r.unconverged_steps);
+  std::printf("net displacement: head dx=%+.4f m dy=%+.4f m; centre of mass dx=%+.4f m dy=%+.4f m\n",
+              r.head_dx, r.head_dy, r.com_dx, r.com_dy);
+  if (h5) {
+    writeProvenance(*h5, "/");
+    h5->commit();
+    std::printf("wrote %s\n", o.out.c_str());
+  }
+  return 0;
+}
+
+// simulate sweep: the Figure 4 timings, one point per (segments, solver).
+int runSimulateSweep(const SimulateOptions& o) {
+  checkOutputDirectory(o.sweep.out);
+  sim::runCentipedeSweep(o.sweep, std::cout);
+  return 0;
+}
+
 // solvers: name and summary, one line each.
 int runSolvers() {
   std::size_t width = 0;
@@ -340,10 +418,11 @@ int main(int argc, char** argv) {
   // generate
   GenerateOptions g;
   CLI::App* gen = app.add_subcommand("generate", "Write a random tree to a model file");
-  gen->add_option("--topology", g.topology, "serial | branched (the paper's §6.1 rule)")
+  gen->add_option("--topology", g.topology, "serial | branched (the paper's §6.1 rule) | centipede")
       ->required();
-  gen->add_option("--n", g.n, "Number of jointed links, not counting a floating base (> 0)")
-      ->required();
+  gen->add_option("--n", g.n,
+                  "Number of jointed links, not counting a floating base (> 0; required "
+                  "except for --topology centipede, which takes --segments)");
   gen->add_option("--seed", g.seed, "Random seed")->check(kNonNegative)->capture_default_str();
   gen->add_flag("--floating-base", g.floating_base, "Add a floating base body");
   gen->add_option("--joints", g.joints, "revolute | mixed (revolute, prismatic, spherical)")
@@ -392,13 +471,48 @@ int main(int argc, char** argv) {
   xfl->add_option("--max-n", x.max_n, "Largest n (powers of two from 2)")->capture_default_str();
   xfl->add_option("--seed", x.seed, "Random seed")->check(kNonNegative)->capture_default_str();
   xfl->add_option("--out", x.out, "Output HDF5 file")->required();
+  AccuracyOptions xa;
+  CLI::App* xac = exp->add_subcommand("accuracy", "Residual and error vs a long-double reference, vs n");
+  xac->add_option("--mode", xa.mode, "quick | full | tiny")->capture_default_str();
+  xac->add_option("--out", xa.out, "Output HDF5 file (appended to and resumed)")->required();
+
+  // merge
+  MergeOptions mg;
+  CLI::App* mrg = app.add_subcommand("merge", "Join the shard files of a sweep into one file");
+  mrg->add_option("--out", mg.out, "Output HDF5 file")->required();
+  mrg->add_option("inputs", mg.inputs, "Shard files")->required();
+
+  gen->add_option("--segments", g.segments, "Centipede: number of body segments (>= 1)");
+  gen->add_option("--segment-joint", g.segment_joint, "Centipede: yaw | spherical")
+      ->capture_default_str();
+
+  // simulate
+  SimulateOptions sm;
+  CLI::App* simc = app.add_subcommand("simulate", "Contact dynamics: the walking centipede (sim/)");
+  simc->require_subcommand(1);
+  CLI::App* scen = simc->add_subcommand("centipede", "One walk; prints the net displacement");
+  scen->add_option("--segments", sm.run.segments, "Body segments (>= 1)")->capture_default_str();
+  scen->add_option("--steps", sm.run.steps, "Time steps")->capture_default_str();
+  scen->add_option("--dt", sm.run.dt, "Step size (s)")->capture_default_str();
+  scen->add_option("--solver", sm.run.solver, "Contact-space path: a solver name or test-impulse")
+      ->capture_default_str();
+  scen->add_option("--segment-joint", sm.run.segment_joint, "yaw | spherical")->capture_default_str();
+  scen->add_option("--frames", sm.run.frames, "Trajectory frames to save")->capture_default_str();
+  scen->add_option("--out", sm.out, "Output HDF5 file (optional)");
+  CLI::App* ssw = simc->add_subcommand("sweep", "Figure 4: time per step vs segments and solver");
+  ssw->add_option("--segments", sm.sweep.segments, "Segment counts")->delimiter(',')
+      ->capture_default_str();
+  ssw->add_option("--solvers", sm.sweep.solvers, "Paths")->delimiter(',')->capture_default_str();
+  ssw->add_option("--steps", sm.sweep.steps, "Time steps per run")->capture_default_str();
+  ssw->add_option("--dt", sm.sweep.dt, "Step size (s)")->capture_default_str();
+  ssw->add_option("--out", sm.sweep.out, "Output HDF5 file (appended to and resumed)")->required();
 
   // An unknown subcommand word (CLI11 would only say that one is required).
   bool known = false;
-  for (CLI::App* sub : {gen, sol, list, fl, exp}) known |= argc > 1 && sub->check_name(argv[1]);
+  for (CLI::App* sub : {gen, sol, list, fl, exp, mrg, simc}) known |= argc > 1 && sub->check_name(argv[1]);
   if (argc > 1 && argv[1][0] != '-' && !known)
     return reportError(std::string("unknown subcommand '") + argv[1] +
-                       "' (expected generate, solve, solvers, flops or experiment)");
+                       "' (expected generate, solve, solvers, flops, experiment, merge or simulate)");
   // Parse: --help/--version exit 0 through CLI11; every other parse error is one line, exit 2.
   try {
     app.parse(argc, argv);
@@ -413,6 +527,10 @@ int main(int argc, char** argv) {
     if (list->parsed()) return runSolvers();
     if (fl->parsed()) return runFlops(f);
     if (xfl->parsed()) return runFlopsExperiment(x);
+    if (xac->parsed()) return runAccuracyExperiment(xa);
+    if (mrg->parsed()) return runMerge(mg);
+    if (scen->parsed()) return runSimulate(sm);
+    if (ssw->parsed()) return runSimulateSweep(sm);
     return reportError("no subcommand given");
   } catch (const std::exception& e) {
     return reportError(e.what());

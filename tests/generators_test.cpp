@@ -15,15 +15,6 @@
 namespace minv {
 namespace {
 
-Eigen::MatrixXd massMatrix(const Model& m, const Eigen::VectorXd& q) {
-  Kinematics<double> kin(m);
-  computeKinematics<double>(m, q, kin);
-  std::vector<Mat6<double>> Ic(m.nb());
-  Eigen::MatrixXd M(m.nv(), m.nv());
-  crba<double>(m, kin, Ic, M);
-  return M;
-}
-
 bool sameJoint(const Joint& a, const Joint& b) {
   return a.name == b.name && a.type == b.type && a.axis == b.axis &&
          a.placement.R == b.placement.R && a.placement.p == b.placement.p;

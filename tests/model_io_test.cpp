@@ -23,15 +23,6 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-Eigen::MatrixXd massMatrix(const Model& m, const Eigen::VectorXd& q) {
-  Kinematics<double> kin(m);
-  computeKinematics<double>(m, q, kin);
-  std::vector<Mat6<double>> Ic(m.nb());
-  Eigen::MatrixXd M(m.nv(), m.nv());
-  crba<double>(m, kin, Ic, M);
-  return M;
-}
-
 // Every field equal within tol (0: bit for bit).
 void expectSameModel(const Model& a, const Model& b, double tol) {
   ASSERT_EQ(a.parents(), b.parents());

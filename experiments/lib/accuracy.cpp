@@ -1,0 +1,179 @@
+#include "experiments/lib/accuracy.hpp"
+
+#include <omp.h>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Core>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+
+#include "core/crba.hpp"
+#include "core/kinematics.hpp"
+#include "experiments/lib/h5writer.hpp"
+#include "experiments/lib/provenance.hpp"
+#include "experiments/lib/timing.hpp"
+#include "generators/random_tree.hpp"
+#include "solvers/solver.hpp"
+
+extern "C" void openblas_set_num_threads(int);
+
+namespace minv {
+
+AccuracySweep accuracySweep(const std::string& mode) {
+  AccuracySweep s;
+  s.mode = mode;
+  if (mode == "quick")
+    s.n = {16, 64, 256, 1024, 2048};
+  else if (mode == "full")
+    s.n = {16, 32, 64, 128, 256, 512, 1024, 2048, 4096};
+  else if (mode == "tiny")
+    s.n = {8, 16};
+  else
+    throw std::invalid_argument("unknown sweep mode '" + mode + "' (expected quick, full or tiny)");
+  return s;
+}
+
+namespace {
+
+using LMat = MatX<long double>;
+
+// λ_max of a symmetric positive (semi)definite matrix by power iteration.
+template <class Mat>
+double lambdaMax(const Mat& A, int iterations = 300) {
+  using S = typename Mat::Scalar;
+  VecX<S> v = VecX<S>::Ones(A.rows()) / std::sqrt(static_cast<S>(A.rows()));
+  S lambda = 0;
+  for (int k = 0; k < iterations; ++k) {
+    VecX<S> w = A * v;
+    lambda = v.dot(w);
+    const S norm = w.norm();
+    if (!(norm > 0)) break;
+    v = w / norm;
+  }
+  return static_cast<double>(lambda);
+}
+
+struct Reference {
+  Eigen::MatrixXd M;  // double CRBA (what the solvers see)
+  LMat Xref;          // long-double M⁻¹
+  double cond = 0;
+};
+
+Reference reference(const Model& model, const Eigen::VectorXd& q) {
+  Reference r;
+  {
+    Kinematics<double> kin(model);
+    computeKinematics<double>(model, q, kin);
+    std::vector<Mat6<double>> Ic(model.nb());
+    r.M.resize(model.nv(), model.nv());
+    crba<double>(model, kin, Ic, r.M);
+  }
+  Kinematics<long double> kin(model);
+  const VecX<long double> ql = q.cast<long double>();
+  computeKinematics<long double>(model, ql, kin);
+  std::vector<Mat6<long double>> Ic(model.nb());
+  LMat Ml(model.nv(), model.nv());
+  crba<long double>(model, kin, Ic, Ml);
+  Eigen::LLT<LMat> llt(Ml);
+  if (llt.info() != Eigen::Success) throw std::runtime_error("long-double Cholesky failed");
+  r.Xref = llt.solve(LMat::Identity(model.nv(), model.nv()));
+  const Eigen::MatrixXd Xd = r.Xref.cast<double>();
+  r.cond = lambdaMax(r.M) * lambdaMax(Xd);
+  return r;
+}
+
+}  // namespace
+
+void runAccuracySweep(const AccuracySweep& sweep, const std::string& path, std::ostream& log) {
+  openblas_set_num_threads(1);
+  omp_set_num_threads(1);
+  H5Writer h5 = H5Writer::append(path);
+  h5.setAttribute("/", "experiment", "accuracy");
+  h5.setAttribute("/", "mode", sweep.mode);
+  h5.setAttribute("/", "seed", sweep.seed);
+  h5.setAttribute("/", "reference",
+                  "long double (x87 80-bit, 64-bit mantissa) CRBA + Eigen::LLT, X_ref = LLT.solve(I)");
+  writeProvenance(h5, "/");
+  h5.createGroup("points");
+  h5.createGroup("problems");
+  h5.flush();
+  const std::vector<std::string> solvers = solverNames();
+  for (const std::string& topo : sweep.topologies) {
+    for (int n : sweep.n) {
+      char tag[48];
+      std::snprintf(tag, sizeof tag, "%s.n%05d", topo.c_str(), n);
+      const std::string problem = std::string("problems/") + tag;
+      bool all_done = h5.hasGroup(problem);
+      for (const std::string& s : solvers) all_done &= h5.hasGroup("points/" + std::string(tag) + "." + s);
+      if (all_done) continue;
+      const Model model = randomTree({topologyFromName(topo), n, sweep.seed, false});
+      const Eigen::VectorXd q = randomConfiguration(model, sweep.seed);
+      const int nv = model.nv();
+      const auto t0 = std::chrono::steady_clock::now();
+      const Reference ref = reference(model, q);
+      const double ref_s =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      if (!h5.hasGroup(problem)) {
+        const std::string g = h5.beginPoint(problem);
+        h5.setAttribute(g, "topology", topo);
+        h5.setAttribute(g, "n", n);
+        h5.setAttribute(g, "nv", nv);
+        h5.setAttribute(g, "seed", sweep.seed);
+        h5.setAttribute(g, "cond", ref.cond);
+        h5.setAttribute(g, "reference_seconds", ref_s);
+        h5.writeIntVector(g + "/parent", model.parents());
+        h5.endPoint(problem);
+      }
+      const long double ref_norm = ref.Xref.norm();
+      const double m_norm = ref.M.norm();
+      for (const std::string& s : solvers) {
+        const std::string name = "points/" + std::string(tag) + "." + s;
+        if (h5.hasGroup(name)) continue;
+        std::unique_ptr<Solver> solver = makeSolver(s);
+        std::string why;
+        std::optional<std::string> skip = skipReason(s, "accuracy", topo, n, sweep.mode);
+        if (!skip && !solver->supports(model, &why)) skip = "solver does not support the tree: " + why;
+        const std::string g = h5.beginPoint(name);
+        h5.setAttribute(g, "family", "accuracy");
+        h5.setAttribute(g, "solver", s);
+        h5.setAttribute(g, "topology", topo);
+        h5.setAttribute(g, "n", n);
+        h5.setAttribute(g, "nv", nv);
+        h5.setAttribute(g, "cond", ref.cond);
+        char line[160];
+        if (skip) {
+          h5.setAttribute(g, "status", "skipped");
+          h5.setAttribute(g, "skipped", *skip);
+          h5.endPoint(name);
+          log << tag << " " << s << " skipped: " << *skip << std::endl;
+          continue;
+        }
+        solver->prepare(model);
+        solver->setThreads(1);
+        solver->configure(q);
+        Eigen::MatrixXd X(nv, nv);
+        solver->inverse(X);
+        const double defect = (ref.M * X - Eigen::MatrixXd::Identity(nv, nv)).norm();
+        const double residual = defect / (m_norm * X.norm());
+        const double residual_identity = defect / std::sqrt(static_cast<double>(nv));
+        const double error =
+            static_cast<double>((X.cast<long double>() - ref.Xref).norm() / ref_norm);
+        h5.setAttribute(g, "status", "ok");
+        h5.setAttribute(g, "residual", residual);
+        h5.setAttribute(g, "residual_identity", residual_identity);
+        h5.setAttribute(g, "error", error);
+        h5.endPoint(name);
+        std::snprintf(line, sizeof line, "%s %-7s cond %.2e residual %.2e residual_I %.2e error %.2e",
+                      tag, s.c_str(), ref.cond, residual, residual_identity, error);
+        log << line << std::endl;
+      }
+    }
+  }
+  h5.commit();
+}
+
+}  // namespace minv

@@ -1,0 +1,80 @@
+"""Figure 4: simulated time cost of the walking centipede vs number of legs, for the
+contact-space paths abi (Θ(nm) impulse sweeps), lapack and ltdl (factor M once per step, then
+back-substitute) and test-impulse (spatial test impulses, no generalized product), each split
+by component. Reads results/centipede.h5 (`minv simulate sweep`); the paper's y axis is the
+total time of its 1000-step run, so per-step means are scaled to 1000 steps (points whose run
+had fewer steps are extrapolated that way and drawn hollow)."""
+import h5py
+import matplotlib.pyplot as plt
+import numpy as np
+
+from common import provenance_line, result_path, save
+
+PATHS = [("abi", "tab:red", "-."), ("lapack", "tab:blue", "-"), ("ltdl", "tab:green", "--"),
+         ("test-impulse", "black", ":")]
+COMPONENTS = ["dynamics", "collision", "matrices", "solve", "update"]
+
+
+def load():
+    out = {}
+    with h5py.File(result_path("centipede.h5"), "r") as f:
+        prov = provenance_line(f)
+        for sname in f:
+            if not sname.startswith("S") or sname.endswith(".partial"):
+                continue
+            for path in f[sname]:
+                if path.endswith(".partial"):
+                    continue
+                g = f[sname][path]
+                a = g.attrs
+                steps = int(a["steps"])
+                row = {c: float(a[f"time_{c}"]) / steps for c in COMPONENTS}
+                row["total"] = float(a["time_total"]) / steps
+                row["legs"] = int(a["legs"])
+                row["nv"] = int(a["nv"])
+                row["steps"] = steps
+                out.setdefault(path, []).append(row)
+    for rows in out.values():
+        rows.sort(key=lambda r: r["legs"])
+    return out, prov
+
+
+def main():
+    data, prov = load()
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(12, 4.6))
+    for path, color, style in PATHS:
+        rows = data.get(path, [])
+        if not rows:
+            continue
+        legs = np.array([r["legs"] for r in rows])
+        total = np.array([r["total"] for r in rows]) * 1000
+        full = np.array([r["steps"] >= 100 for r in rows])
+        ax.plot(legs, total, style, color=color, label=path)
+        ax.plot(legs[full], total[full], "o", color=color)
+        ax.plot(legs[~full], total[~full], "o", mfc="none", color=color)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("number of legs (2 per segment)")
+    ax.set_ylabel("time for 1000 steps of h = 1e-5 s (s)")
+    ax.set_title("Figure 4: centipede walking, total time")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    # Components at the largest S measured for every path.
+    common = set.intersection(*[set(r["legs"] for r in data[p]) for p, _, _ in PATHS if p in data])
+    if common:
+        legs = max(common)
+        names = [p for p, _, _ in PATHS if p in data]
+        bottom = np.zeros(len(names))
+        for comp, col in zip(COMPONENTS, ["tab:gray", "tab:olive", "tab:purple", "tab:orange", "tab:cyan"]):
+            vals = np.array([next(r[comp] for r in data[p] if r["legs"] == legs) for p in names]) * 1e3
+            bx.bar(names, vals, bottom=bottom, color=col, label=comp)
+            bottom += vals
+        bx.set_ylabel("ms per step")
+        bx.set_title(f"per-step components, {legs} legs ({legs // 2} segments)")
+        bx.legend(fontsize=8)
+    fig.text(0.01, -0.02, prov, fontsize=5)
+    save(fig, "figure4_centipede")
+
+
+if __name__ == "__main__":
+    main()

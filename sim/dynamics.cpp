@@ -1,0 +1,206 @@
+#include "sim/dynamics.hpp"
+
+#include <Eigen/Geometry>
+#include <cmath>
+
+namespace minv::sim {
+
+namespace {
+
+// v × m for motion vectors (RBDA eq. 2.31), without forming the 6×6 matrix.
+Vec6<double> crossMotion(const Vec6<double>& v, const Vec6<double>& m) {
+  Vec6<double> out;
+  const Eigen::Vector3d w = v.head<3>(), vl = v.tail<3>();
+  out.head<3>() = w.cross(m.head<3>());
+  out.tail<3>() = w.cross(m.tail<3>()) + vl.cross(m.head<3>());
+  return out;
+}
+
+// v ×* f for force vectors (RBDA eq. 2.32).
+Vec6<double> crossForce(const Vec6<double>& v, const Vec6<double>& f) {
+  Vec6<double> out;
+  const Eigen::Vector3d w = v.head<3>(), vl = v.tail<3>();
+  out.head<3>() = w.cross(f.head<3>()) + vl.cross(f.tail<3>());
+  out.tail<3>() = w.cross(f.tail<3>());
+  return out;
+}
+
+}  // namespace
+
+void bodyVelocities(const Model& model, const Kinematics<double>& kin, const Eigen::VectorXd& v,
+                    Mat6N<double>& V) {
+  for (int i = 0; i < model.nb(); ++i) {
+    const int p = model.parent(i), vi = model.vIdx(i), k = model.nvOf(i);
+    const Vec6<double> vJ = kin.S.middleCols(vi, k) * v.segment(vi, k);
+    V.col(i) = p >= 0 ? Vec6<double>(V.col(p) + vJ) : vJ;
+  }
+}
+
+void aba(const Model& model, const Kinematics<double>& kin, const Articulated<double>& art,
+         const Eigen::VectorXd& v, const Eigen::VectorXd& tau, const Eigen::Vector3d& gravity,
+         AbaWorkspace& ws, Eigen::VectorXd& qdd) {
+  const int nb = model.nb();
+  // Pass 1: velocities, velocity-product accelerations c_i = V_i × S_i q̇_i, bias forces.
+  for (int i = 0; i < nb; ++i) {
+    const int p = model.parent(i), vi = model.vIdx(i), k = model.nvOf(i);
+    const Vec6<double> vJ = kin.S.middleCols(vi, k) * v.segment(vi, k);
+    const Vec6<double> V = p >= 0 ? Vec6<double>(ws.V.col(p) + vJ) : vJ;
+    ws.V.col(i) = V;
+    ws.c.col(i) = crossMotion(V, vJ);
+    ws.pA.col(i) = crossForce(V, kin.I[i] * V);
+  }
+  // Pass 2: u_i = τ_i − S_iᵀ pA_i; pA_λ += pA_i + Ia_i c_i + U_i D_i⁻¹ u_i with
+  // Ia_i = IA_i − U_i D_i⁻¹ U_iᵀ.
+  for (int i = nb - 1; i >= 0; --i) {
+    const int p = model.parent(i), vi = model.vIdx(i), k = model.nvOf(i);
+    ws.u.segment(vi, k) = tau.segment(vi, k) - kin.S.middleCols(vi, k).transpose() * ws.pA.col(i);
+    if (p >= 0) {
+      const Vec6<double> ci = ws.c.col(i);
+      const VecK<double> Utc = art.U.middleCols(vi, k).transpose() * ci;
+      Vec6<double> pa = ws.pA.col(i) + art.IA[i] * ci;
+      pa.noalias() -= art.UDinv.middleCols(vi, k) * Utc;
+      pa.noalias() += art.UDinv.middleCols(vi, k) * ws.u.segment(vi, k);
+      ws.pA.col(p) += pa;
+    }
+  }
+  // Pass 3: accelerations; gravity enters as the root's fictitious acceleration −g.
+  Vec6<double> a0;
+  a0 << Eigen::Vector3d::Zero(), -gravity;
+  for (int i = 0; i < nb; ++i) {
+    const int p = model.parent(i), vi = model.vIdx(i), k = model.nvOf(i);
+    const Vec6<double> ap = (p >= 0 ? Vec6<double>(ws.a.col(p)) : a0) + ws.c.col(i);
+    VecK<double> qd = art.Dinv[i] * ws.u.segment(vi, k);
+    qd.noalias() -= art.UDinv.middleCols(vi, k).transpose() * ap;
+    qdd.segment(vi, k) = qd;
+    ws.a.col(i) = ap + kin.S.middleCols(vi, k) * qd;
+  }
+}
+
+void impulseForwardSweep(const Model& model, const Kinematics<double>& kin,
+                         const Articulated<double>& art, ImpulseWorkspace& ws,
+                         Eigen::VectorXd& dqd) {
+  for (int i = 0; i < model.nb(); ++i) {
+    const int p = model.parent(i), v = model.vIdx(i), k = model.nvOf(i);
+    if (k == 1) {
+      double qd = art.Dinv[i](0, 0) * ws.u(v);
+      if (p >= 0) qd -= art.UDinv.col(v).dot(ws.dv.col(p));
+      dqd(v) = qd;
+      if (p >= 0)
+        ws.dv.col(i) = ws.dv.col(p) + kin.S.col(v) * qd;
+      else
+        ws.dv.col(i) = kin.S.col(v) * qd;
+    } else {
+      VecK<double> qd = art.Dinv[i] * ws.u.segment(v, k);
+      if (p >= 0) qd.noalias() -= art.UDinv.middleCols(v, k).transpose() * ws.dv.col(p);
+      dqd.segment(v, k) = qd;
+      if (p >= 0)
+        ws.dv.col(i) = ws.dv.col(p);
+      else
+        ws.dv.col(i).setZero();
+      ws.dv.col(i).noalias() += kin.S.middleCols(v, k) * qd;
+    }
+  }
+}
+
+void addJacobianColumn(const Model& model, const Kinematics<double>& kin, int body,
+                       const Vec6<double>& f, Eigen::MatrixXd& J, int col) {
+  for (int i = body; i >= 0; i = model.parent(i)) {
+    const int vi = model.vIdx(i), k = model.nvOf(i);
+    J.col(col).segment(vi, k) += kin.S.middleCols(vi, k).transpose() * f;
+  }
+}
+
+std::vector<int> pathDofs(const Model& model, int body) {
+  std::vector<int> dofs;
+  for (int i = body; i >= 0; i = model.parent(i))
+    for (int d = 0; d < model.nvOf(i); ++d) dofs.push_back(model.vIdx(i) + d);
+  return dofs;
+}
+
+void testImpulses(const Model& model, const Kinematics<double>& kin,
+                  const Articulated<double>& art, ImpulseWorkspace& ws,
+                  const std::vector<int>& bodies, const std::vector<Vec6<double>>& wrenches,
+                  Eigen::MatrixXd& A, Eigen::VectorXd& scratch) {
+  const int m = static_cast<int>(bodies.size());
+  for (int c = 0; c < m; ++c) {
+    // Backward along the impulse's path only: Y_b = −f, u_i = −S_iᵀ Y_i, Y_λ = Y_i + U D⁻¹ u_i.
+    Vec6<double> Y = -wrenches[c];
+    for (int i = bodies[c]; i >= 0; i = model.parent(i)) {
+      const int vi = model.vIdx(i), k = model.nvOf(i);
+      ws.u.segment(vi, k).noalias() = -(kin.S.middleCols(vi, k).transpose() * Y);
+      Y.noalias() += art.UDinv.middleCols(vi, k) * ws.u.segment(vi, k);
+    }
+    // Forward: every body's ΔV (scratch receives Δq̇, unused).
+    impulseForwardSweep(model, kin, art, ws, scratch);
+    for (int r = 0; r < m; ++r) A(r, c) = wrenches[r].dot(ws.dv.col(bodies[r]));
+    for (int i = bodies[c]; i >= 0; i = model.parent(i))
+      ws.u.segment(model.vIdx(i), model.nvOf(i)).setZero();
+  }
+  // Symmetric up to rounding; make it exactly so.
+  A = (0.5 * (A + A.transpose())).eval();
+}
+
+void applyImpulses(const Model& model, const Kinematics<double>& kin,
+                   const Articulated<double>& art, ImpulseWorkspace& ws,
+                   const std::vector<int>& bodies, const std::vector<Vec6<double>>& wrenches,
+                   const Eigen::VectorXd& lambda, Eigen::VectorXd& dqd) {
+  ws.Y.setZero();
+  for (std::size_t c = 0; c < bodies.size(); ++c) ws.Y.col(bodies[c]) -= wrenches[c] * lambda(c);
+  for (int i = model.nb() - 1; i >= 0; --i) {
+    const int vi = model.vIdx(i), k = model.nvOf(i), p = model.parent(i);
+    ws.u.segment(vi, k).noalias() = -(kin.S.middleCols(vi, k).transpose() * ws.Y.col(i));
+    if (p >= 0) {
+      ws.Y.col(p) += ws.Y.col(i);
+      ws.Y.col(p).noalias() += art.UDinv.middleCols(vi, k) * ws.u.segment(vi, k);
+    }
+  }
+  impulseForwardSweep(model, kin, art, ws, dqd);
+  ws.u.setZero();
+}
+
+namespace {
+// Q ← Q ⊗ exp(h ω / 2) for q(o … o+3) = (w, x, y, z), renormalised.
+void rotate(Eigen::VectorXd& q, int o, const Eigen::Vector3d& w, double h) {
+  Eigen::Quaterniond Q(q(o), q(o + 1), q(o + 2), q(o + 3));
+  const double angle = w.norm() * h;
+  if (angle != 0) Q = Q * Eigen::Quaterniond(Eigen::AngleAxisd(angle, w / w.norm()));
+  Q.normalize();
+  q(o) = Q.w(), q(o + 1) = Q.x(), q(o + 2) = Q.y(), q(o + 3) = Q.z();
+}
+}  // namespace
+
+void integrate(const Model& model, Eigen::VectorXd& q, const Eigen::VectorXd& v, double h) {
+  for (int i = 0; i < model.nb(); ++i) {
+    const int o = model.qIdx(i), vi = model.vIdx(i);
+    switch (model.joint(i).type) {
+      case JointType::Revolute:
+      case JointType::Prismatic: q(o) += h * v(vi); break;
+      case JointType::Spherical: rotate(q, o, v.segment<3>(vi), h); break;
+      case JointType::Floating: {
+        const Mat3<double> R = quatToRotation<double>(q(o + 3), q(o + 4), q(o + 5), q(o + 6));
+        q.segment<3>(o) += h * (R * v.segment<3>(vi + 3));
+        rotate(q, o + 3, v.segment<3>(vi), h);
+        break;
+      }
+    }
+  }
+}
+
+Vec6<double> spatialMomentum(const Model& model, const Kinematics<double>& kin,
+                             const Eigen::VectorXd& v) {
+  Mat6N<double> V(6, model.nb());
+  bodyVelocities(model, kin, v, V);
+  Vec6<double> h = Vec6<double>::Zero();
+  for (int i = 0; i < model.nb(); ++i) h += kin.I[i] * V.col(i);
+  return h;
+}
+
+double kineticEnergy(const Model& model, const Kinematics<double>& kin, const Eigen::VectorXd& v) {
+  Mat6N<double> V(6, model.nb());
+  bodyVelocities(model, kin, v, V);
+  double e = 0;
+  for (int i = 0; i < model.nb(); ++i) e += 0.5 * V.col(i).dot(kin.I[i] * V.col(i));
+  return e;
+}
+
+}  // namespace minv::sim

@@ -1,0 +1,103 @@
+// Rigid-body dynamics for the simulator, on core/'s world-frame quantities (double only).
+//
+//   aba()              articulated-body forward dynamics (RBDA Table 7.1, in world
+//                      coordinates, where Ṡ_i = V_i × S_i): q̈ = M⁻¹(τ − C(q, v) + gravity),
+//                      given IA, U, D⁻¹ from core/articulated.hpp. Θ(nb). The unconstrained step
+//                      of every solver path.
+//   contact wrenches   a unit force along direction d at world point p is the spatial force
+//                      f = [p × d; d] about the world origin; the Jacobian column of a contact on
+//                      body b is J_k = S_kᵀ f for the DOFs k of b and its ancestors (zero
+//                      elsewhere); the contact point's velocity along d is fᵀ V_b.
+//   testImpulses()     contact-space inertia by spatial test impulses (Mirtich 1996; RBDA §7.
+//                      applied to impulses): a unit spatial impulse f at body b is swept up b's
+//                      path to the root through the articulated inertias, then one forward sweep
+//                      gives every body's velocity change ΔV; entry (r, c) of the contact-space
+//                      inertia is f_rᵀ ΔV_{b_r}. No nv-sized product is formed: O(nb·m + m²).
+//   applyImpulses()    Δv = M⁻¹ Σ_c J_c λ_c by one backward and one forward sweep, Θ(nb).
+//   integrate()        q ← q ⊕ h·v: angles and positions by Euler, quaternions by the
+//                      exponential map of the child/body-frame angular velocity, renormalised;
+//                      a floating base moves by R·v_body.
+#pragma once
+
+#include <Eigen/Core>
+#include <vector>
+
+#include "core/articulated.hpp"
+#include "core/kinematics.hpp"
+
+namespace minv::sim {
+
+// A point fixed in a body: the body and the point in its frame.
+struct ContactPoint {
+  int body = 0;
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();
+};
+
+// Scratch for aba().
+struct AbaWorkspace {
+  Mat6N<double> V, c, pA, a;  // per body: velocity, velocity-product acceleration, bias, accel.
+  Eigen::VectorXd u;
+  explicit AbaWorkspace(const Model& m)
+      : V(Mat6N<double>::Zero(6, m.nb())), c(V), pA(V), a(V), u(Eigen::VectorXd::Zero(m.nv())) {}
+};
+
+// Scratch of the impulse sweeps (own copy: solvers/abi's workspace is that solver's business).
+struct ImpulseWorkspace {
+  Mat6N<double> Y, dv;  // articulated impulses and velocity changes, per body
+  Eigen::VectorXd u;    // per DOF
+  explicit ImpulseWorkspace(const Model& m)
+      : Y(Mat6N<double>::Zero(6, m.nb())), dv(Y), u(Eigen::VectorXd::Zero(m.nv())) {}
+};
+
+// Forward impulse sweep (Drumwright Alg. 1 lines 7-9): Δq̇_i = D_i⁻¹u_i − (U_iD_i⁻¹)ᵀΔV_λ(i),
+// ΔV_i = ΔV_λ(i) + S_iΔq̇_i, for every body; ws.u must be zero off the impulses' paths.
+void impulseForwardSweep(const Model& model, const Kinematics<double>& kin,
+                         const Articulated<double>& art, ImpulseWorkspace& ws,
+                         Eigen::VectorXd& dqd);
+
+// World spatial velocities V_i = V_λ(i) + S_i v_i of every body.
+void bodyVelocities(const Model& model, const Kinematics<double>& kin, const Eigen::VectorXd& v,
+                    Mat6N<double>& V);
+
+// q̈ from ABA; `gravity` is the world gravity vector (e.g. (0, 0, −9.81)).
+void aba(const Model& model, const Kinematics<double>& kin, const Articulated<double>& art,
+         const Eigen::VectorXd& v, const Eigen::VectorXd& tau, const Eigen::Vector3d& gravity,
+         AbaWorkspace& ws, Eigen::VectorXd& qdd);
+
+// The spatial force of a unit force along d at world point p.
+inline Vec6<double> unitWrench(const Eigen::Vector3d& p, const Eigen::Vector3d& d) {
+  Vec6<double> f;
+  f << p.cross(d), d;
+  return f;
+}
+
+// Adds J_f = (S_kᵀ f)_k over b's path to column `col` of J (nv×m).
+void addJacobianColumn(const Model& model, const Kinematics<double>& kin, int body,
+                       const Vec6<double>& f, Eigen::MatrixXd& J, int col);
+
+// The DOFs on body b's path to the root (b's own first), for sparse products with J.
+std::vector<int> pathDofs(const Model& model, int body);
+
+// Contact-space inertia A (m×m), A_rc = f_rᵀ ΔV_{b_r}(unit impulse f_c at b_c): equals
+// Jᵀ M⁻¹ J for J = [J_f0 … J_f(m−1)].
+void testImpulses(const Model& model, const Kinematics<double>& kin,
+                  const Articulated<double>& art, ImpulseWorkspace& ws,
+                  const std::vector<int>& bodies, const std::vector<Vec6<double>>& wrenches,
+                  Eigen::MatrixXd& A, Eigen::VectorXd& scratch);
+
+// dqd = M⁻¹ Σ_c J_c λ_c for impulses λ_c along wrenches f_c at bodies b_c.
+void applyImpulses(const Model& model, const Kinematics<double>& kin,
+                   const Articulated<double>& art, ImpulseWorkspace& ws,
+                   const std::vector<int>& bodies, const std::vector<Vec6<double>>& wrenches,
+                   const Eigen::VectorXd& lambda, Eigen::VectorXd& dqd);
+
+// q ← q ⊕ h·v (see above); quaternions renormalised.
+void integrate(const Model& model, Eigen::VectorXd& q, const Eigen::VectorXd& v, double h);
+
+// Total spatial momentum Σ I_i V_i about the world origin, world coordinates.
+Vec6<double> spatialMomentum(const Model& model, const Kinematics<double>& kin,
+                             const Eigen::VectorXd& v);
+// Kinetic energy ½ Σ V_iᵀ I_i V_i.
+double kineticEnergy(const Model& model, const Kinematics<double>& kin, const Eigen::VectorXd& v);
+
+}  // namespace minv::sim

@@ -1,0 +1,174 @@
+#include "sim/simulator.hpp"
+
+#include <chrono>
+#include <stdexcept>
+
+namespace minv::sim {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point& t0) {
+  const Clock::time_point t1 = Clock::now();
+  const double s = std::chrono::duration<double>(t1 - t0).count();
+  t0 = t1;
+  return s;
+}
+}  // namespace
+
+std::vector<std::string> simulationPaths() {
+  std::vector<std::string> names = solverNames();
+  names.push_back(kTestImpulsePath);
+  return names;
+}
+
+Simulator::Simulator(const Model& model, std::vector<ContactPoint> points, SimOptions options)
+    : model_(model),
+      points_(std::move(points)),
+      o_(std::move(options)),
+      kin_(model),
+      art_(model),
+      aba_(model),
+      abi_(model) {
+  if (o_.path != kTestImpulsePath) {
+    solver_ = makeSolver(o_.path);  // throws for an unknown name
+    std::string why;
+    if (!solver_->supports(model_, &why))
+      throw std::invalid_argument("solver '" + o_.path + "' does not support this model: " + why);
+    solver_->prepare(model_);
+  }
+  if (!(o_.dt > 0)) throw std::invalid_argument("the time step must be positive");
+  if (o_.friction_dirs < 3) throw std::invalid_argument("friction needs at least 3 directions");
+  for (const ContactPoint& p : points_)
+    if (p.body < 0 || p.body >= model_.nb())
+      throw std::invalid_argument("contact point on a body the model does not have");
+  const int nv = model_.nv();
+  q_ = model_.neutral();
+  v_ = tau_ = qdd_ = vstar_ = dv_ = scratch_ = Eigen::VectorXd::Zero(nv);
+  warm_.assign(points_.size(), Eigen::VectorXd());
+}
+
+void Simulator::setState(const Eigen::VectorXd& q, const Eigen::VectorXd& v) {
+  model_.checkConfiguration(q);
+  if (v.size() != model_.nv()) throw std::invalid_argument("velocity has the wrong size");
+  q_ = q;
+  v_ = v;
+}
+
+void Simulator::step() {
+  const double h = o_.dt;
+  const int k = o_.friction_dirs;
+  StepTimes st;
+  Clock::time_point t0 = Clock::now();
+
+  // dynamics: v* = v + h·ABA(q, v, τ).
+  computeKinematics<double>(model_, q_, kin_);
+  articulatedInertias<double>(model_, kin_, art_);
+  tau_.setZero();
+  if (controller_) controller_(t_, q_, v_, tau_);
+  aba(model_, kin_, art_, v_, tau_, o_.gravity, aba_, qdd_);
+  vstar_ = v_ + h * qdd_;
+  st.dynamics = since(t0);
+
+  // collision: points below the margin that approach the plane (v*_n + b < 0: a separating
+  // contact would only receive the model's spurious "push-away" impulses, see
+  // sim/contact_solver.hpp); their unit wrenches (n, t1, t2), velocities and bias.
+  active_.clear();
+  std::vector<int> bodies;
+  std::vector<Vec6<double>> wrenches;
+  std::vector<double> bias;
+  std::vector<double> vel;
+  bool velocities = false;
+  for (int c = 0; c < static_cast<int>(points_.size()); ++c) {
+    const int b = points_[c].body;
+    const Pose<double>& X = kin_.X[b];
+    const Eigen::Vector3d p = X.p + X.R * points_[c].point;
+    const double phi = p.z();
+    if (phi < o_.margin) {
+      if (!velocities) {
+        bodyVelocities(model_, kin_, vstar_, aba_.V);
+        velocities = true;
+      }
+      const double bc = phi >= 0 ? phi / h : o_.erp * phi / h;
+      Vec6<double> f[3];
+      for (int d = 0; d < 3; ++d) f[d] = unitWrench(p, Eigen::Vector3d::Unit((d + 2) % 3));  // z, x, y
+      const double vn = f[0].dot(aba_.V.col(b));
+      if (vn + bc < 0) {
+        active_.push_back(c);
+        for (int d = 0; d < 3; ++d) {
+          bodies.push_back(b);
+          wrenches.push_back(f[d]);
+          vel.push_back(f[d].dot(aba_.V.col(b)));
+        }
+        bias.push_back(bc);
+        continue;
+      }
+    }
+    warm_[c].resize(0);
+  }
+  const int nc = static_cast<int>(active_.size()), m = 3 * nc;
+  const Eigen::VectorXd v0 = Eigen::Map<const Eigen::VectorXd>(vel.data(), m);
+  st.collision = since(t0);
+
+  if (nc == 0) {
+    lambda_.resize(0);
+    residuals_ = ContactResiduals{};
+    v_ = vstar_;
+    integrate(model_, q_, v_, h);
+  } else {
+    // matrices: A = Jᵀ M⁻¹ J.
+    A_.resize(m, m);
+    if (!solver_) {
+      testImpulses(model_, kin_, art_, abi_, bodies, wrenches, A_, scratch_);
+    } else {
+      solver_->configure(q_);
+      J_.setZero(model_.nv(), m);
+      for (int r = 0; r < m; ++r) addJacobianColumn(model_, kin_, bodies[r], wrenches[r], J_, r);
+      X_.resize(model_.nv(), m);
+      solver_->solve(J_, X_);
+      // A = JᵀX with J's sparsity: the 3 columns of a contact live on its body's path, so
+      // column r of A (= row r, A is symmetric) is Σ_{d on the path} J(d, r) Xᵀ(:, d), with
+      // Xᵀ stored so that those are contiguous axpys. Θ(m² · depth), not Θ(m² · nv).
+      Xt_ = X_.transpose();
+      A_.setZero();
+      for (int r = 0; r < m; ++r)
+        for (int i = bodies[r]; i >= 0; i = model_.parent(i))
+          for (int d = model_.vIdx(i); d < model_.vIdx(i) + model_.nvOf(i); ++d)
+            A_.col(r).noalias() += J_(d, r) * Xt_.col(d);
+      A_ = (0.5 * (A_ + A_.transpose())).eval();
+    }
+    st.matrices = since(t0);
+
+    // solve: maximum dissipation, warm started.
+    ContactProblem prob;
+    prob.A = A_;
+    prob.v0 = v0;
+    prob.b = Eigen::Map<const Eigen::VectorXd>(bias.data(), nc);
+    prob.mu = o_.mu;
+    prob.k = k;
+    Eigen::VectorXd beta(k * nc);
+    for (int c = 0; c < nc; ++c) {
+      const Eigen::VectorXd& w = warm_[active_[c]];
+      beta.segment(k * c, k) = w.size() == k ? w : Eigen::VectorXd::Zero(k);
+    }
+    ContactSolution sol = solveMaxDissipation(prob, beta, o_.contact);
+    for (int c = 0; c < nc; ++c) warm_[active_[c]] = sol.beta.segment(k * c, k);
+    lambda_ = sol.lambda;
+    residuals_ = sol.residuals;
+    st.solve = since(t0);
+
+    // update: v⁺ = v* + M⁻¹Jλ, then q.
+    if (!solver_)
+      applyImpulses(model_, kin_, art_, abi_, bodies, wrenches, lambda_, dv_);
+    else
+      dv_.noalias() = X_ * lambda_;
+    v_ = vstar_ + dv_;
+    integrate(model_, q_, v_, h);
+  }
+  st.update = since(t0);
+  t_ += h;
+  ++steps_;
+  last_ = st;
+  total_ += st;
+}
+
+}  // namespace minv::sim

@@ -1,0 +1,115 @@
+// Velocity-level (impulse-based) time stepping with point contacts on the ground plane z = 0.
+//
+// One step of size h, in four timed components:
+//   dynamics     kinematics, articulated-body inertias, controller torques τ, ABA forward
+//                dynamics q̈ (sim/dynamics.hpp), v* = v + h q̈: the same for every path.
+//   collision    each contact point's height φ; points with φ < margin are contacts, with
+//                normal z and tangents x, y; their velocities J₂ᵀv* and the bias
+//                b = φ/h if φ ≥ 0 (speculative: the point may just reach the plane) or
+//                erp·φ/h if φ < 0 (push out a fraction erp of the penetration per step).
+//   matrices     the contact-space inertia A = Jᵀ M⁻¹ J (3 columns per contact: N and the two
+//                tangent columns of D; see sim/contact_solver.hpp) by the chosen path:
+//                  a registry solver (abi, lapack, ltdl, …): configure(q), then
+//                  X = solve(J) = M⁻¹J (abi: Θ(nm) impulse sweeps, never forming M⁻¹;
+//                  Cholesky family: CRBA, factor once, back-substitute), A = JᵀX using J's
+//                  sparsity (each column lives on one body's path to the root);
+//                  "test-impulse": spatial test impulses at the contact points through the
+//                  articulated inertias already computed for ABA (sim/dynamics.hpp), no
+//                  generalized-coordinate product, O(nb·m + m²).
+//   solve        the maximum-dissipation contact impulses λ (sim/contact_solver.hpp), warm
+//                started from the previous step's generator weights of the same point.
+//   update       v⁺ = v* + M⁻¹Jλ (solver paths: X λ; test-impulse: one impulse sweep), then
+//                q ← q ⊕ h v⁺ (sim/dynamics.hpp). This is semi-implicit ("symplectic")
+//                Euler: the paper's explicit Euler step with the new velocity, as every
+//                velocity-level contact method integrates.
+#pragma once
+
+#include <Eigen/Core>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/articulated.hpp"
+#include "core/kinematics.hpp"
+#include "sim/contact_solver.hpp"
+#include "sim/dynamics.hpp"
+#include "solvers/solver.hpp"
+
+namespace minv::sim {
+
+constexpr const char* kTestImpulsePath = "test-impulse";
+
+// Every contact-space path: the registry's solvers, then "test-impulse".
+std::vector<std::string> simulationPaths();
+
+struct SimOptions {
+  double dt = 1e-5;
+  Eigen::Vector3d gravity = Eigen::Vector3d(0, 0, -9.81);
+  double mu = 0.8;
+  int friction_dirs = 4;
+  double margin = 2e-3;  // m
+  double erp = 0.2;
+  std::string path = "abi";
+  ContactSolverOptions contact;
+};
+
+struct StepTimes {
+  double dynamics = 0, collision = 0, matrices = 0, solve = 0, update = 0;
+  double total() const { return dynamics + collision + matrices + solve + update; }
+  StepTimes& operator+=(const StepTimes& o) {
+    dynamics += o.dynamics, collision += o.collision, matrices += o.matrices, solve += o.solve,
+        update += o.update;
+    return *this;
+  }
+};
+
+class Simulator {
+ public:
+  using Controller = std::function<void(double t, const Eigen::VectorXd& q,
+                                        const Eigen::VectorXd& v, Eigen::VectorXd& tau)>;
+
+  // Throws std::invalid_argument for an unknown path or a solver that does not support the
+  // model. The model must outlive the simulator.
+  Simulator(const Model& model, std::vector<ContactPoint> points, SimOptions options);
+
+  void setState(const Eigen::VectorXd& q, const Eigen::VectorXd& v);
+  void setController(Controller c) { controller_ = std::move(c); }
+  void step();
+
+  const Eigen::VectorXd& q() const { return q_; }
+  const Eigen::VectorXd& v() const { return v_; }
+  double time() const { return t_; }
+  int steps() const { return steps_; }
+  const StepTimes& lastTimes() const { return last_; }
+  const StepTimes& totalTimes() const { return total_; }
+  int lastContacts() const { return static_cast<int>(active_.size()); }
+  const ContactResiduals& lastResiduals() const { return residuals_; }
+  const Eigen::VectorXd& lastImpulses() const { return lambda_; }  // 3 per active contact
+  const std::vector<int>& activeContacts() const { return active_; }
+  // Kinematics at the configuration of the last step's start.
+  const Kinematics<double>& kinematics() const { return kin_; }
+  const SimOptions& options() const { return o_; }
+  const Model& model() const { return model_; }
+
+ private:
+  const Model& model_;
+  std::vector<ContactPoint> points_;
+  SimOptions o_;
+  std::unique_ptr<Solver> solver_;
+  Controller controller_;
+  Kinematics<double> kin_;
+  Articulated<double> art_;
+  AbaWorkspace aba_;
+  ImpulseWorkspace abi_;
+  Eigen::VectorXd q_, v_, tau_, qdd_, vstar_, dv_, scratch_, lambda_;
+  Eigen::MatrixXd J_, X_, Xt_, A_;
+  std::vector<Eigen::VectorXd> warm_;  // per contact point, k generator weights
+  std::vector<int> active_;
+  ContactResiduals residuals_;
+  StepTimes last_, total_;
+  double t_ = 0;
+  int steps_ = 0;
+};
+
+}  // namespace minv::sim

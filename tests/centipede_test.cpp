@@ -1,0 +1,94 @@
+// The centipede model and the `minv generate --topology centipede` / `minv simulate` commands.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include "core/kinematics.hpp"
+#include "generators/centipede.hpp"
+
+namespace minv {
+namespace {
+
+TEST(Centipede, SizesAndNumbering) {
+  for (int S : {1, 2, 7}) {
+    const Centipede c = makeCentipede({.segments = S});
+    EXPECT_EQ(c.model.nb(), 5 * S);
+    EXPECT_EQ(c.model.nv(), 9 * S + 5);
+    EXPECT_EQ(c.legs(), 2 * S);
+    EXPECT_TRUE(c.model.floatingBase());
+    for (int i = 1; i < c.model.nb(); ++i) EXPECT_LT(c.model.parent(i), i);
+    const Centipede sph = makeCentipede({.segments = S, .segment_joint = SegmentJoint::Spherical});
+    EXPECT_EQ(sph.model.nv(), 6 + 3 * (S - 1) + 8 * S);
+  }
+  EXPECT_EQ(makeCentipede({.segments = 250}).model.nv(), 2255);
+  EXPECT_THROW(makeCentipede({.segments = 0}), ModelError);
+}
+
+// Standing: every tip exactly on the plane, the segments lower_length above it.
+TEST(Centipede, StandsOnItsTips) {
+  const Centipede c = makeCentipede({.segments = 5});
+  const Eigen::VectorXd q = centipedeStanding(c);
+  Kinematics<double> kin(c.model);
+  computeKinematics<double>(c.model, q, kin);
+  for (int l = 0; l < c.legs(); ++l) {
+    const Pose<double>& X = kin.X[c.lower_body[l]];
+    EXPECT_NEAR((X.p + X.R * c.tip).z(), 0.0, 1e-15);
+  }
+  for (int b : c.segment_body) EXPECT_NEAR(kin.X[b].p.z(), c.options.lower_length, 1e-15);
+}
+
+std::string run(const std::string& args, int* status) {
+  std::array<char, 4096> buf;
+  std::string out;
+  const std::string cmd = std::string(MINV_CLI) + " " + args + " 2>&1";
+  FILE* f = popen(cmd.c_str(), "r");
+  while (fgets(buf.data(), buf.size(), f)) out += buf.data();
+  *status = WEXITSTATUS(pclose(f));
+  return out;
+}
+
+TEST(CentipedeCli, GeneratePrintsTheDofCount) {
+  const std::string path =
+      (std::filesystem::temp_directory_path() / "minv_centipede_test.json").string();
+  int status = 0;
+  const std::string out = run("generate --topology centipede --segments 5 --out " + path, &status);
+  EXPECT_EQ(status, 0) << out;
+  EXPECT_NE(out.find("nv=50"), std::string::npos) << out;
+  EXPECT_TRUE(std::filesystem::exists(path));
+  std::filesystem::remove(path);
+  const std::string bad = run("generate --topology centipede --segments 0 --out " + path, &status);
+  EXPECT_EQ(status, 2);
+  EXPECT_EQ(bad.rfind("minv: error: ", 0), 0u) << bad;
+  EXPECT_FALSE(std::filesystem::exists(path));
+}
+
+// The acceptance run: `minv simulate centipede --segments 20` walks forward.
+TEST(CentipedeCli, TwentySegmentsWalkForward) {
+  int status = 0;
+  const std::string out = run("simulate centipede --segments 20", &status);
+  ASSERT_EQ(status, 0) << out;
+  const auto at = out.find("centre of mass dx=");
+  ASSERT_NE(at, std::string::npos) << out;
+  const double dx = std::stod(out.substr(at + 18));
+  EXPECT_GT(dx, 0.1) << out;  // metres in the default 3 s walk (measured 0.38)
+}
+
+TEST(CentipedeCli, SimulateErrorsAreOneLine) {
+  const std::string path =
+      (std::filesystem::temp_directory_path() / "minv_sim_bad.h5").string();
+  int status = 0;
+  std::string out = run("simulate centipede --segments 3 --steps 5 --solver nope --out " + path, &status);
+  EXPECT_EQ(status, 2);
+  EXPECT_EQ(out.rfind("minv: error: ", 0), 0u) << out;
+  EXPECT_FALSE(std::filesystem::exists(path));
+  out = run("simulate centipede --segments 3 --dt -1 --out " + path, &status);
+  EXPECT_EQ(status, 2);
+  EXPECT_FALSE(std::filesystem::exists(path));
+}
+
+}  // namespace
+}  // namespace minv

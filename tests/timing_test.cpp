@@ -1,0 +1,228 @@
+// The timing harness: sweep definition, shards, skip table, merge, and a sweep killed with
+// SIGKILL midway that resumes without losing or rerunning a finished point. Runs the real
+// bench_timing binary (built next to minv) on the tiny sweep.
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <string>
+#include <thread>
+
+#include "experiments/lib/timing.hpp"
+#include "solvers/solver.hpp"
+
+namespace fs = std::filesystem;
+using namespace minv;
+
+namespace {
+
+fs::path benchBinary() { return fs::path(MINV_CLI).parent_path() / "bench_timing"; }
+
+fs::path tempDir(const std::string& tag) {
+  fs::path d = fs::temp_directory_path() /
+               ("minv_" + tag + "_" + std::to_string(::getpid()) + "_" +
+                std::to_string(std::chrono::steady_clock::now().time_since_epoch().count()));
+  fs::create_directories(d);
+  return d;
+}
+
+int run(const std::string& cmd) {
+  const int rc = std::system(cmd.c_str());
+  return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+int countFinishedLines(const fs::path& log) {
+  std::ifstream in(log);
+  std::string line;
+  int k = 0;
+  while (std::getline(in, line))
+    if (!line.empty() && line[0] == '[') ++k;
+  return k;
+}
+
+// Attributes that describe the point itself (not when/where it was measured).
+const char* kIdentity[] = {"family", "solver", "topology", "base", "n", "nv", "nb", "max_depth",
+                           "m", "threads", "seed", "mode", "status"};
+
+}  // namespace
+
+TEST(Timing, ShardParsing) {
+  const Shard s = parseShard("1/3");
+  EXPECT_EQ(s.index, 1);
+  EXPECT_EQ(s.count, 3);
+  for (const char* bad : {"3/3", "1", "a/2", "-1/2", "1/0", "", "1/2/3"})
+    EXPECT_THROW(parseShard(bad), std::invalid_argument) << bad;
+}
+
+TEST(Timing, ShardsPartitionTheSweep) {
+  for (const char* mode : {"tiny", "quick", "full"}) {
+    const std::vector<TimingPoint> all = sweepPoints(timingSweep(mode));
+    std::set<std::string> names;
+    for (const auto& p : all) EXPECT_TRUE(names.insert(p.name()).second) << "duplicate " << p.name();
+    std::set<std::string> seen;
+    std::size_t total = 0;
+    for (int i = 0; i < 3; ++i) {
+      const auto part = shardPoints(all, {i, 3});
+      total += part.size();
+      for (const auto& p : part) seen.insert(p.name());
+      const auto again = shardPoints(all, {i, 3});  // deterministic
+      ASSERT_EQ(again.size(), part.size());
+      for (std::size_t k = 0; k < part.size(); ++k) EXPECT_EQ(again[k].name(), part[k].name());
+    }
+    EXPECT_EQ(total, all.size());
+    EXPECT_EQ(seen, names);
+  }
+}
+
+TEST(Timing, QuickSweepCoversTheIssue) {
+  const std::vector<TimingPoint> all = sweepPoints(timingSweep("quick"));
+  std::set<std::string> families, solvers;
+  std::set<int> ms, threads;
+  int max_n = 0;
+  bool floating = false;
+  for (const auto& p : all) {
+    families.insert(p.family), solvers.insert(p.solver), ms.insert(p.m), threads.insert(p.threads);
+    max_n = std::max(max_n, p.n);
+    floating |= p.floating;
+  }
+  EXPECT_EQ(families, (std::set<std::string>{"pipeline", "kernel", "threads"}));
+  EXPECT_EQ(ms, (std::set<int>{0, 1, 8, 64}));
+  EXPECT_EQ(threads, (std::set<int>{1, 2, 4}));
+  EXPECT_EQ(max_n, 1024);
+  EXPECT_TRUE(floating);
+  for (const std::string& s : solverNames()) EXPECT_TRUE(solvers.count(s)) << s;
+  int full_max = 0;
+  for (const auto& p : sweepPoints(timingSweep("full"))) full_max = std::max(full_max, p.n);
+  EXPECT_EQ(full_max, 4096);
+  EXPECT_THROW(timingSweep("medium"), std::invalid_argument);
+}
+
+TEST(Timing, SkipTableIsData) {
+  // abi and lapack are never skipped; every rule's reason reaches the point.
+  for (int n : {8, 1024, 4096}) {
+    EXPECT_FALSE(skipReason("abi", "pipeline", "serial", n, "full"));
+    EXPECT_FALSE(skipReason("lapack", "kernel", "branched", n, "full"));
+  }
+  EXPECT_FALSE(skipReason("mujoco", "pipeline", "serial", 256, "quick"));
+  const auto r = skipReason("mujoco", "pipeline", "serial", 362, "quick");
+  ASSERT_TRUE(r);
+  EXPECT_NE(r->find("mj_setConst"), std::string::npos);
+  EXPECT_NE(r->find("n = 256"), std::string::npos);
+  EXPECT_TRUE(skipReason("mujoco", "accuracy", "serial", 1024, "quick"));
+  EXPECT_FALSE(skipReason("mujoco", "accuracy", "serial", 512, "quick"));
+  for (const SkipRule& rule : skipRules()) {
+    EXPECT_GT(std::string(rule.reason).size(), 10u);
+    EXPECT_LE(rule.quick_max_n, rule.full_max_n);
+  }
+}
+
+TEST(Timing, LogSpaced) {
+  EXPECT_EQ(logSpaced(8, 64, 1), (std::vector<int>{8, 16, 32, 64}));
+  EXPECT_EQ(logSpaced(8, 32, 2), (std::vector<int>{8, 11, 16, 23, 32}));
+}
+
+// A sweep killed (SIGKILL) after some points finished keeps them, and the rerun completes the
+// sweep without rerunning them: their raw times are bit-identical.
+TEST(Timing, KilledSweepResumesWithoutLosingPoints) {
+  ASSERT_TRUE(fs::exists(benchBinary())) << benchBinary() << " is missing: build the bench_timing target";
+  const fs::path dir = tempDir("resume");
+  const fs::path out = dir / "t.h5", log = dir / "first.log";
+  const std::size_t total = sweepPoints(timingSweep("tiny")).size();
+  // Everything the child needs is built before fork (only async-signal-safe calls after it).
+  const std::string bin = benchBinary().string(), o = out.string(), l = log.string();
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    const int fd = ::open(l.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    dup2(fd, 1);
+    dup2(fd, 2);
+    execl(bin.c_str(), bin.c_str(), "--mode", "tiny", "--min-time", "0.05", "--out", o.c_str(),
+          static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  // Kill it once two points are on disk (the driver logs a point after endPoint's flush).
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (countFinishedLines(log) < 2 && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  kill(child, SIGKILL);
+  int status = 0;
+  waitpid(child, &status, 0);
+  ASSERT_TRUE(WIFSIGNALED(status)) << "the sweep finished before it could be killed:\n" << slurp(log);
+  const auto before = readPoints(out.string());
+  ASSERT_GE(before.size(), 2u);
+  ASSERT_LT(before.size(), total) << "nothing left to resume";
+
+  ASSERT_EQ(run(benchBinary().string() + " --mode tiny --min-time 0.002 --out " + out.string() +
+                " > " + (dir / "second.log").string() + " 2>&1"),
+            0)
+      << slurp(dir / "second.log");
+  EXPECT_NE(slurp(dir / "second.log").find(std::to_string(before.size()) + " already in"),
+            std::string::npos)
+      << slurp(dir / "second.log");
+  const auto after = readPoints(out.string());
+  EXPECT_EQ(after.size(), total);
+  for (const auto& [name, rec] : before) {
+    ASSERT_TRUE(after.count(name)) << name;
+    EXPECT_EQ(after.at(name).real_s, rec.real_s) << name << " was rerun";
+    EXPECT_EQ(after.at(name).attrs.at("date_utc"), rec.attrs.at("date_utc")) << name;
+  }
+  for (const auto& [name, rec] : after) {
+    EXPECT_EQ(rec.attrs.at("status"), "ok") << name;
+    EXPECT_FALSE(rec.real_s.empty()) << name;
+    EXPECT_EQ(rec.parent.size(), static_cast<std::size_t>(std::stoi(rec.attrs.at("n")))) << name;
+  }
+  fs::remove_all(dir);
+}
+
+// Shards run apart and merged give the same points as one process (identity attributes and
+// parent arrays; the times are measurements and differ).
+TEST(Timing, MergedShardsEqualOneProcess) {
+  ASSERT_TRUE(fs::exists(benchBinary())) << benchBinary() << " is missing";
+  const fs::path dir = tempDir("merge");
+  const std::string bench = benchBinary().string() + " --mode tiny --min-time 0.001 ";
+  ASSERT_EQ(run(bench + "--out " + (dir / "one.h5").string() + " > /dev/null"), 0);
+  for (int i = 0; i < 2; ++i)
+    ASSERT_EQ(run(bench + "--shard " + std::to_string(i) + "/2 --out " +
+                  (dir / ("s" + std::to_string(i) + ".h5")).string() + " > /dev/null"),
+              0);
+  ASSERT_EQ(run(std::string(MINV_CLI) + " merge --out " + (dir / "merged.h5").string() + " " +
+                (dir / "s0.h5").string() + " " + (dir / "s1.h5").string() + " > /dev/null"),
+            0);
+  const auto one = readPoints((dir / "one.h5").string());
+  const auto merged = readPoints((dir / "merged.h5").string());
+  ASSERT_EQ(merged.size(), one.size());
+  for (const auto& [name, rec] : one) {
+    ASSERT_TRUE(merged.count(name)) << name;
+    for (const char* key : kIdentity) EXPECT_EQ(merged.at(name).attrs.at(key), rec.attrs.at(key)) << name << " " << key;
+    EXPECT_EQ(merged.at(name).parent, rec.parent) << name;
+    EXPECT_EQ(merged.at(name).real_s.size(), rec.real_s.size()) << name;
+  }
+  // A point in two inputs is an error; a failed merge leaves no output file.
+  EXPECT_EQ(run(std::string(MINV_CLI) + " merge --out " + (dir / "dup.h5").string() + " " +
+                (dir / "s0.h5").string() + " " + (dir / "s0.h5").string() + " 2> /dev/null"),
+            2);
+  EXPECT_FALSE(fs::exists(dir / "dup.h5"));
+  EXPECT_FALSE(fs::exists(dir / "dup.h5.tmp"));
+  EXPECT_EQ(run(std::string(MINV_CLI) + " merge --out " + (dir / "x.h5").string() +
+                " /nonexistent.h5 2> /dev/null"),
+            2);
+  EXPECT_EQ(run(benchBinary().string() + " --shard 2/2 --out " + (dir / "y.h5").string() +
+                " 2> /dev/null"),
+            2);
+  fs::remove_all(dir);
+}
