@@ -74,9 +74,10 @@ const Problem& problem(const Case& c) {
   return memo.emplace(c.name, std::move(p)).first->second;
 }
 
-// Runs one solver: M⁻¹ and M⁻¹R for a seeded R with 3 columns.
+// Runs one solver: M⁻¹, and M⁻¹R for a seeded R with 11 columns (a full SIMD block of abi's
+// and a partial one) and for its first column alone (the one-column path).
 struct Result {
-  Eigen::MatrixXd X, Y, R;
+  Eigen::MatrixXd X, Y, R, Y1;
 };
 
 bool run(const std::string& solver, const Problem& p, Result& out, std::string* why) {
@@ -85,13 +86,15 @@ bool run(const std::string& solver, const Problem& p, Result& out, std::string* 
   s->prepare(p.model);
   s->configure(p.q);
   const int n = p.model.nv();
-  out.R = Eigen::MatrixXd::NullaryExpr(n, 3, [](Eigen::Index i, Eigen::Index j) {
+  out.R = Eigen::MatrixXd::NullaryExpr(n, 11, [](Eigen::Index i, Eigen::Index j) {
     return std::sin(1.0 + 3.0 * i + 7.0 * j);
   });
   out.X.resize(n, n);
-  out.Y.resize(n, 3);
+  out.Y.resize(n, 11);
+  out.Y1.resize(n, 1);
   s->inverse(out.X);
   s->solve(out.R, out.Y);
+  s->solve(out.R.leftCols(1), out.Y1);
   return true;
 }
 
@@ -115,7 +118,8 @@ TEST_P(Conformance, InverseSolveSymmetry) {
   EXPECT_LE(rel(r.X, r.X.transpose()), p.tol);
   // solve(R) = inverse()·R.
   EXPECT_LE(rel(r.Y, r.X * r.R), p.tol);
-  EXPECT_TRUE(r.X.allFinite() && r.Y.allFinite());
+  EXPECT_LE(rel(r.Y1, r.X * r.R.leftCols(1)), p.tol);
+  EXPECT_TRUE(r.X.allFinite() && r.Y.allFinite() && r.Y1.allFinite());
 }
 
 TEST_P(Conformance, AgreesWithEverySolver) {
