@@ -29,6 +29,18 @@ void crbaMassMatrix(const Model& model, const Kinematics<T>& kin, const std::vec
   M.setZero();
   for (int i = 0; i < model.nb(); ++i) {
     const int vi = model.vIdx(i), ki = model.nvOf(i);
+    if (ki == 1) {
+      // One DOF: F is a 6-vector and every element a 6-term dot product.
+      const Vec6<T> F = Ic[i] * kin.S.col(vi);
+      mark("Ic s vectors");
+      M(vi, vi) = kin.S.col(vi).dot(F);
+      for (int j = model.parent(i); j >= 0; j = model.parent(j)) {
+        const int vj = model.vIdx(j), kj = model.nvOf(j);
+        for (int c = 0; c < kj; ++c) M(vi, vj + c) = M(vj + c, vi) = kin.S.col(vj + c).dot(F);
+      }
+      mark("elements of M");
+      continue;
+    }
     const Mat6X<T> F = Ic[i].lazyProduct(kin.S.middleCols(vi, ki));
     mark("Ic s vectors");
     M.block(vi, vi, ki, ki).noalias() = kin.S.middleCols(vi, ki).transpose().lazyProduct(F);
