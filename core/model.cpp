@@ -117,6 +117,7 @@ Model Model::create(std::vector<int> parent, std::vector<Joint> joints, std::vec
     m.v_idx_[i] = m.nv_;
     m.depth_[i] = parent[i] < 0 ? 1 : m.depth_[parent[i]] + 1;
     const int k = jointNv(joints[i].type);
+    m.nv_of_.push_back(k);
     // Expand λ over DOFs: the first DOF hangs off the parent's last DOF, the rest chain.
     for (int j = 0; j < k; ++j) {
       int p = j > 0 ? m.nv_ + j - 1 : -1;

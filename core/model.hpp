@@ -67,7 +67,7 @@ class Model {
   const Body& body(int i) const { return bodies_[i]; }
   int qIdx(int i) const { return q_idx_[i]; }
   int vIdx(int i) const { return v_idx_[i]; }
-  int nvOf(int i) const { return jointNv(joints_[i].type); }
+  int nvOf(int i) const { return nv_of_[i]; }
 
   // DOF parent array (expandLambda) and the body each DOF belongs to.
   const std::vector<int>& dofParent() const { return dof_parent_; }
@@ -86,7 +86,7 @@ class Model {
   std::vector<int> parent_;
   std::vector<Joint> joints_;
   std::vector<Body> bodies_;
-  std::vector<int> q_idx_, v_idx_, depth_, dof_parent_, dof_body_;
+  std::vector<int> q_idx_, v_idx_, nv_of_, depth_, dof_parent_, dof_body_;
   int nq_ = 0, nv_ = 0;
 };
 

@@ -114,7 +114,7 @@ void registerAll(bool full) {
                                       : std::vector<int>{8, 16, 32, 64, 128, 256, 512, 1024,
                                                          2048};
   std::vector<std::string> peers;
-  for (const std::string& s : {"abi", "lapack", "eigen", "ltdl", "mujoco"})
+  for (const char* s : {"abi", "lapack", "eigen", "ltdl", "mujoco"})
     if (std::find(solverNames().begin(), solverNames().end(), s) != solverNames().end())
       peers.push_back(s);
   for (Topology t : {Topology::Serial, Topology::Branched})

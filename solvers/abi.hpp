@@ -14,10 +14,11 @@
 // Savings: U, D⁻¹ and U D⁻¹ are computed once per configuration (§5.2; core/articulated.hpp).
 // For a unit column e_c at body b only b's ancestors carry a non-zero Y (§5.2), and since M⁻¹
 // is symmetric only the rows of bodies 0 … b are needed (bodies are numbered parent first, so
-// their Δv never needs a later body): both sweeps stop at b, and the other triangle is
-// mirrored. Columns go in blocks of W lanes (W = kAbiLanes<T>: 8 for double, 1 for the
-// counting scalar), one lane per column, so every update is a W-wide vector operation;
-// blocks run in OpenMP threads (setThreads). Multi-DOF joints make D a k×k block.
+// their Δv never needs a later body): both sweeps stop at b, and each computed entry is
+// written to both triangles. Columns go in blocks of W lanes (W = kAbiLanes<T>: 8 for double,
+// 1 for the counting scalar), one lane per column, so every update is a W-wide vector
+// operation; along a chain Y and Δv stay in registers from body to body; blocks run in OpenMP
+// threads (setThreads). Multi-DOF joints make D a k×k block.
 // Cost: Σ_c (depth(b_c) + b_c) body steps ≈ n²/2 + Σ depth for M⁻¹ (Θ(n²)); Θ(m·nb) for M⁻¹R.
 // Scratch Θ(nb·W) per thread, allocated in the workspace; the sweeps do not allocate.
 #pragma once
@@ -37,24 +38,39 @@ namespace minv {
 
 inline int omp_thread() { return omp_get_thread_num(); }
 
+// The sweeps are compiled with every call inside them inlined, so that their lane arithmetic
+// is one loop body whatever inlining budget the including translation unit leaves.
+#if defined(__GNUC__)
+#define MINV_FLATTEN __attribute__((flatten))
+#else
+#define MINV_FLATTEN
+#endif
+
 // Columns per SIMD block: 8 doubles (two AVX2 or one AVX-512 register per row); the counting
 // scalar runs one column at a time, so its counts are those of the algorithm, column by column.
 template <class T>
 inline constexpr int kAbiLanes = 1;
 template <>
-inline constexpr int kAbiLanes<double> = 8;
+inline constexpr int kAbiLanes<double> = 16;
 
 // Scratch of one thread for a block of W columns.
 template <class T, int W>
 struct AbiLanes {
   using Lane = Eigen::Array<T, 1, W>;                   // one value per column
   using Spatial = Eigen::Array<T, 6, W, W == 1 ? Eigen::ColMajor : Eigen::RowMajor>;  // per column
-  std::vector<Spatial> Y;   // articulated impulses, per body
-  std::vector<Spatial> dv;  // velocity changes Δv, per body
+  std::vector<Spatial> Y;   // Y_i handed to a parent that is not the previous body, per body
+  std::vector<Spatial> dv;  // Δv_i read by a child that is not the next body, per body
   std::vector<Lane> u;      // u_i = r_i − S_iᵀ Y_i, then Δq̇, per DOF
+  // gather[i]: body i has a child other than i + 1. Along a chain (parent(i + 1) = i) Y and Δv
+  // pass from body to body in registers; only at such branch points do they go through memory.
+  std::vector<char> gather;
 
   explicit AbiLanes(const Model& m)
-      : Y(m.nb(), Spatial::Zero()), dv(m.nb(), Spatial::Zero()), u(m.nv(), Lane::Zero()) {}
+      : Y(m.nb(), Spatial::Zero()), dv(m.nb(), Spatial::Zero()), u(m.nv(), Lane::Zero()),
+        gather(m.nb(), 0) {
+    for (int j = 1; j < m.nb(); ++j)
+      if (m.parent(j) >= 0 && m.parent(j) != j - 1) gather[m.parent(j)] = 1;
+  }
 };
 
 // Per-tree scratch of the impulse sweeps: a wide block and a one-column block per thread.
@@ -68,107 +84,166 @@ struct AbiWorkspace {
   int threads() const { return static_cast<int>(wide.size()); }
 };
 
+// One body of the backward sweep on Y = Y_i (Y_i + U D⁻¹ u on exit), for K DOFs (K = 0: k).
+// The 6-term dot products go as two halves, a shorter dependency chain.
+template <class T, int W, bool Unit, int K>
+inline void abiBackwardBody(const Kinematics<T>& kin, const Articulated<T>& art,
+                            AbiLanes<T, W>& ws, typename AbiLanes<T, W>::Spatial& Y, int v,
+                            int k, bool root, int c0, int width) {
+  using Lane = typename AbiLanes<T, W>::Lane;
+  if constexpr (K > 0) k = K;
+  Lane u[K > 0 ? K : 6];
+  for (int j = 0; j < k; ++j) {
+    // u = r − S_jᵀ Y
+    const auto S = kin.S.col(v + j);
+    const Lane sy = (S(0) * Y.row(0) + S(1) * Y.row(1) + S(2) * Y.row(2)) +
+                    (S(3) * Y.row(3) + S(4) * Y.row(4) + S(5) * Y.row(5));
+    if constexpr (Unit) {
+      u[j] = -sy;
+      if (static_cast<unsigned>(v + j - c0) < static_cast<unsigned>(width)) u[j](v + j - c0) += T(1);
+    } else {
+      u[j] = ws.u[v + j] - sy;
+    }
+    ws.u[v + j] = u[j];
+  }
+  if (root) return;
+  // Y + Σ_j (U D⁻¹)_j u_j, what the parent receives.
+  for (int j = 0; j < k; ++j)
+    for (int r = 0; r < 6; ++r) Y.row(r) += art.UDinv(r, v + j) * u[j];
+}
+
 // Backward sweep from body `last` to the roots: u_i = r_i − S_iᵀ Y_i, Y_λ(i) += Y_i + U_i D_i⁻¹ u_i.
 // r is either the unit impulses e_{c0+w} (Unit; ws.u is then written, not read) or held in
-// ws.u on entry. ws.Y is zero on entry; each Y_i is zeroed again once used, so the next block
-// starts clean without a pass of its own.
+// ws.u on entry. ws.Y is zero on entry and again on exit (each entry is cleared once gathered).
 template <class T, int W, bool Unit>
-void abiBackward(const Model& model, const Kinematics<T>& kin, const Articulated<T>& art,
+MINV_FLATTEN void abiBackward(const Model& model, const Kinematics<T>& kin, const Articulated<T>& art,
                  AbiLanes<T, W>& ws, int last, int c0 = 0, int width = 0) {
+  typename AbiLanes<T, W>::Spatial Y;  // Y_i of the current body
+  bool carried = false;                // Y holds what child i + 1 handed up
   for (int i = last; i >= 0; --i) {
     const int v = model.vIdx(i), k = model.nvOf(i), p = model.parent(i);
-    auto& Y = ws.Y[i];
-    for (int j = 0; j < k; ++j) {
-      // u = r − S_jᵀ Y
-      auto& u = ws.u[v + j];
-      typename AbiLanes<T, W>::Lane sy = kin.S(0, v + j) * Y.row(0);
-      for (int r = 1; r < 6; ++r) sy += kin.S(r, v + j) * Y.row(r);
-      if constexpr (Unit) {
-        u = -sy;
-        if (static_cast<unsigned>(v + j - c0) < static_cast<unsigned>(width)) u(v + j - c0) += T(1);
-      } else {
-        u -= sy;
-      }
+    // Y_i: carried up the chain from i + 1, plus what other children left in memory.
+    if (!carried) Y.setZero();
+    if (ws.gather[i]) {
+      Y += ws.Y[i];
+      ws.Y[i].setZero();
     }
-    if (p >= 0) {
-      // Y_λ(i) += Y_i + Σ_j (U D⁻¹)_j u_j
-      auto& Yp = ws.Y[p];
-      Yp += Y;
-      for (int j = 0; j < k; ++j)
-        for (int r = 0; r < 6; ++r) Yp.row(r) += art.UDinv(r, v + j) * ws.u[v + j];
-    }
-    Y.setZero();
+    // u_i, and Y_i + U_i D_i⁻¹ u_i for the parent.
+    if (k == 1)
+      abiBackwardBody<T, W, Unit, 1>(kin, art, ws, Y, v, k, p < 0, c0, width);
+    else
+      abiBackwardBody<T, W, Unit, 0>(kin, art, ws, Y, v, k, p < 0, c0, width);
+    // Carried on along a chain, else left in memory.
+    carried = p >= 0 && p == i - 1;
+    if (p >= 0 && !carried) ws.Y[p] += Y;
   }
 }
 
-// Forward sweep over bodies 0 … last: Δq̇_i = D_i⁻¹ u_i − (U_i D_i⁻¹)ᵀ Δv_λ(i), stored for
-// lane w < width at out[v + w·ld] (column w of the output), Δv_i = Δv_λ(i) + S_i Δq̇_i.
-template <class T, int W>
-void abiForward(const Model& model, const Kinematics<T>& kin, const Articulated<T>& art,
-                AbiLanes<T, W>& ws, int last, T* out, std::size_t ld, int width) {
+// One body of the forward sweep on dv = Δv_λ(i) (Δv_i on exit), for K DOFs (K = 0: k):
+// Δq̇ = D⁻¹ u − (U D⁻¹)ᵀ Δv_λ into ws.u, then Δv_i = Δv_λ + S Δq̇ (Δv_λ = 0 at a root).
+template <class T, int W, int K>
+inline void abiForwardBody(const Kinematics<T>& kin, const Articulated<T>& art, AbiLanes<T, W>& ws,
+                           typename AbiLanes<T, W>::Spatial& dv, int i, int v, int k, bool root) {
   using Lane = typename AbiLanes<T, W>::Lane;
+  if constexpr (K > 0) k = K;
+  Lane qd[K > 0 ? K : 6];
+  for (int j = 0; j < k; ++j) {
+    // Δq̇_j, the 6-term dot product as two halves
+    qd[j] = art.Dinv[i](j, 0) * ws.u[v];
+    for (int l = 1; l < k; ++l) qd[j] += art.Dinv[i](j, l) * ws.u[v + l];
+    if (!root) {
+      const auto UD = art.UDinv.col(v + j);
+      qd[j] -= (UD(0) * dv.row(0) + UD(1) * dv.row(1) + UD(2) * dv.row(2)) +
+               (UD(3) * dv.row(3) + UD(4) * dv.row(4) + UD(5) * dv.row(5));
+    }
+  }
+  for (int j = 0; j < k; ++j) ws.u[v + j] = qd[j];
+  // Δv_i = Δv_λ + S Δq̇
+  for (int r = 0; r < 6; ++r) {
+    Lane row = kin.S(r, v) * qd[0];
+    for (int j = 1; j < k; ++j) row += kin.S(r, v + j) * qd[j];
+    if (root)
+      dv.row(r) = row;
+    else
+      dv.row(r) += row;
+  }
+}
+
+// Forward sweep over bodies 0 … last: Δq̇_i = D_i⁻¹ u_i − (U_i D_i⁻¹)ᵀ Δv_λ(i), left in ws.u,
+// and Δv_i = Δv_λ(i) + S_i Δq̇_i.
+template <class T, int W>
+MINV_FLATTEN void abiForward(const Model& model, const Kinematics<T>& kin, const Articulated<T>& art,
+                AbiLanes<T, W>& ws, int last) {
+  typename AbiLanes<T, W>::Spatial dv;  // Δv of the current body; on entry, of body i − 1
   for (int i = 0; i <= last; ++i) {
     const int v = model.vIdx(i), k = model.nvOf(i), p = model.parent(i);
-    auto& dv = ws.dv[i];
-    if (k == 1) {
-      // Δq̇ = u/d − (U/d)ᵀ Δv_λ
-      Lane qd = art.Dinv[i](0, 0) * ws.u[v];
-      if (p >= 0)
-        for (int r = 0; r < 6; ++r) qd -= art.UDinv(r, v) * ws.dv[p].row(r);
-      ws.u[v] = qd;
-    } else {
-      // Δq̇ = D⁻¹ u − (U D⁻¹)ᵀ Δv_λ, k rows at once.
-      Lane qd[6];
-      for (int j = 0; j < k; ++j) {
-        qd[j] = art.Dinv[i](j, 0) * ws.u[v];
-        for (int l = 1; l < k; ++l) qd[j] += art.Dinv[i](j, l) * ws.u[v + l];
-        if (p >= 0)
-          for (int r = 0; r < 6; ++r) qd[j] -= art.UDinv(r, v + j) * ws.dv[p].row(r);
-      }
-      for (int j = 0; j < k; ++j) ws.u[v + j] = qd[j];
-    }
-    // Store Δq̇ column by column.
-    for (int j = 0; j < k; ++j)
-      for (int w = 0; w < width; ++w) out[v + j + w * ld] = ws.u[v + j](w);
-    // Δv_i = Δv_λ(i) + S_i Δq̇_i
-    for (int r = 0; r < 6; ++r) {
-      Lane row = kin.S(r, v) * ws.u[v];
-      for (int j = 1; j < k; ++j) row += kin.S(r, v + j) * ws.u[v + j];
-      if (p >= 0)
-        dv.row(r) = ws.dv[p].row(r) + row;
-      else
-        dv.row(r) = row;
-    }
+    // Δv_λ(i): carried from body i − 1 along a chain, else read from memory.
+    if (p >= 0 && p != i - 1) dv = ws.dv[p];
+    // Δq̇_i and Δv_i.
+    if (k == 1)
+      abiForwardBody<T, W, 1>(kin, art, ws, dv, i, v, k, p < 0);
+    else
+      abiForwardBody<T, W, 0>(kin, art, ws, dv, i, v, k, p < 0);
+    // Kept in memory for a child that is not the next body.
+    if (ws.gather[i]) ws.dv[i] = dv;
   }
 }
 
-// Columns c0 … c0+W−1 (those below nv) of M⁻¹, rows of bodies 0 … b(last column): the upper
-// triangle of those columns (and a few entries below it, overwritten by the mirror).
+// Columns c0 … c0+W−1 (those below nv) of M⁻¹ down to the diagonal: Δq̇ of lane w for the
+// rows of bodies 0 … b(last column), which include every row up to column c0 + w.
 template <class T, int W, class Mark>
-void abiInverseBlock(const Model& model, const Kinematics<T>& kin, const Articulated<T>& art,
+MINV_FLATTEN void abiInverseBlock(const Model& model, const Kinematics<T>& kin, const Articulated<T>& art,
                      AbiLanes<T, W>& ws, int c0, MatX<T>& X, Mark& mark) {
   const int nv = model.nv(), width = std::min(W, nv - c0);
   const int last = model.dofBody(c0 + width - 1);
   // The unit impulses e_{c0+w}, one per lane, up to the roots; then Δq̇ of bodies 0 … last.
   abiBackward<T, W, true>(model, kin, art, ws, last, c0, width);
   mark("impulse propagation");
-  abiForward<T, W>(model, kin, art, ws, last, &X(0, c0), X.rows(), width);
+  abiForward<T, W>(model, kin, art, ws, last);
   mark("velocity updates");
+  // Column c0 + w, rows 0 … c0 + w: whole 8-row tiles through a buffer (lanes to columns),
+  // then the diagonal tile.
+  const std::size_t ld = X.rows();
+  T* x = X.data();
+  int v0 = 0;
+  for (; v0 + 8 <= c0; v0 += 8) {
+    T t[W][8];
+    for (int v = 0; v < 8; ++v)
+      for (int w = 0; w < W; ++w) t[w][v] = ws.u[v0 + v](w);
+    for (int w = 0; w < width; ++w)
+      for (int v = 0; v < 8; ++v) x[v0 + v + (c0 + w) * ld] = t[w][v];
+  }
+  for (int w = 0; w < width; ++w)
+    for (int v = v0; v <= c0 + w; ++v) x[v + (c0 + w) * ld] = ws.u[v](w);
 }
 
-// The lower triangle from the upper one, X(i, j) = X(j, i) for i > j, in square tiles that
-// stay in cache (both the read and the written tile).
+// The lower triangle from the upper one, X(i, j) = X(j, i) for i > j: b×b tiles, each read
+// whole into a buffer in L1 and written out, within B×B tiles whose pages stay in the TLB.
+// Tile columns run in OpenMP threads.
 template <class T>
-void mirrorUpper(MatX<T>& X) {
-  constexpr int B = 32;
+void mirrorUpper(MatX<T>& X, int threads) {
+  constexpr int B = 256, b = 16;
   const int n = static_cast<int>(X.rows());
+  const std::size_t ld = X.rows();
   T* x = X.data();
-  for (int jb = 0; jb < n; jb += B)
-    for (int ib = jb; ib < n; ib += B) {
-      const int je = std::min(jb + B, n), ie = std::min(ib + B, n);
-      for (int j = jb; j < je; ++j)
-        for (int i = std::max(ib, j + 1); i < ie; ++i) x[i + std::size_t(j) * n] = x[j + std::size_t(i) * n];
-    }
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) if (threads > 1)
+  for (int jB = 0; jB < n; jB += B)
+    for (int iB = jB; iB < n; iB += B)
+      for (int jb = jB; jb < std::min(jB + B, n); jb += b)
+        for (int ib = std::max(iB, jb); ib < std::min(iB + B, n); ib += b) {
+          if (ib >= jb + b && ib + b <= n) {
+            // A whole tile below the diagonal: t = X(jb…, ib…), then X(ib…, jb…) = tᵀ.
+            T t[b][b];
+            for (int i = 0; i < b; ++i)
+              for (int j = 0; j < b; ++j) t[i][j] = x[jb + j + (ib + i) * ld];
+            for (int j = 0; j < b; ++j)
+              for (int i = 0; i < b; ++i) x[ib + i + (jb + j) * ld] = t[i][j];
+            continue;
+          }
+          // A tile on the diagonal or the last rows: entry by entry.
+          for (int j = jb; j < std::min(jb + b, n); ++j)
+            for (int i = std::max(ib, j + 1); i < std::min(ib + b, n); ++i) x[i + j * ld] = x[j + i * ld];
+        }
 }
 
 // Stages "impulse propagation" and "velocity updates" for all columns: Minv = M⁻¹.
@@ -187,7 +262,7 @@ void abiInverse(const Model& model, const Kinematics<T>& kin, const Articulated<
   } else {
     for (int b = 0; b < blocks; ++b) abiInverseBlock<T, W>(model, kin, art, ws.wide[0], b * W, Minv, mark);
   }
-  mirrorUpper(Minv);
+  mirrorUpper(Minv, ws.threads());
 }
 
 // Columns c0 … c0+W−1 of X = M⁻¹R: the full backward sweep, then the full forward sweep.
@@ -203,8 +278,11 @@ void abiSolveBlock(const Model& model, const Kinematics<T>& kin, const Articulat
   }
   abiBackward<T, W, false>(model, kin, art, ws, nb - 1);
   mark("impulse propagation");
-  abiForward<T, W>(model, kin, art, ws, nb - 1, &X(0, c0), X.rows(), width);
+  abiForward<T, W>(model, kin, art, ws, nb - 1);
   mark("velocity updates");
+  // Δq̇ of lane w is column c0 + w of X.
+  for (int w = 0; w < width; ++w)
+    for (int v = 0; v < nv; ++v) X(v, c0 + w) = ws.u[v](w);
 }
 
 // X = M⁻¹R, W columns at a time (one at a time when R has fewer columns than half a block).
