@@ -14,11 +14,11 @@
 // Savings: U, D⁻¹ and U D⁻¹ are computed once per configuration (§5.2; core/articulated.hpp).
 // For a unit column e_c at body b only b's ancestors carry a non-zero Y (§5.2), and since M⁻¹
 // is symmetric only the rows of bodies 0 … b are needed (bodies are numbered parent first, so
-// their Δv never needs a later body): both sweeps stop at b, and each computed entry is
-// written to both triangles. Columns go in blocks of W lanes (W = kAbiLanes<T>: 8 for double,
-// 1 for the counting scalar), one lane per column, so every update is a W-wide vector
-// operation; along a chain Y and Δv stay in registers from body to body; blocks run in OpenMP
-// threads (setThreads). Multi-DOF joints make D a k×k block.
+// their Δv never needs a later body): both sweeps stop at b, the columns are written down to
+// the diagonal and the lower triangle is mirrored from them. Columns go in blocks of W lanes
+// (W = kAbiLanes<T>: 16 for double, 1 for the counting scalar), one lane per column, so every
+// update is a W-wide vector operation; along a chain Y and Δv pass from body to body without
+// a store; blocks run in OpenMP threads (setThreads). Multi-DOF joints make D a k×k block.
 // Cost: Σ_c (depth(b_c) + b_c) body steps ≈ n²/2 + Σ depth for M⁻¹ (Θ(n²)); Θ(m·nb) for M⁻¹R.
 // Scratch Θ(nb·W) per thread, allocated in the workspace; the sweeps do not allocate.
 #pragma once
@@ -46,8 +46,10 @@ inline int omp_thread() { return omp_get_thread_num(); }
 #define MINV_FLATTEN
 #endif
 
-// Columns per SIMD block: 8 doubles (two AVX2 or one AVX-512 register per row); the counting
-// scalar runs one column at a time, so its counts are those of the algorithm, column by column.
+// Columns per SIMD block: 16 doubles, four AVX2 (two AVX-512) registers per row, so each body
+// step has four independent FMA chains to hide the latency of the body-to-body recursion
+// (measured on AVX2: 8 lanes leave it latency-bound, 32 spill; paper/PERFORMANCE.md). The
+// counting scalar runs one column at a time: its counts are the algorithm's, column by column.
 template <class T>
 inline constexpr int kAbiLanes = 1;
 template <>
@@ -73,14 +75,18 @@ struct AbiLanes {
   }
 };
 
-// Per-tree scratch of the impulse sweeps: a wide block and a one-column block per thread.
+// Per-tree scratch of the impulse sweeps, per thread: a wide block, a half-wide one (for a
+// last block of few columns) and a one-column one.
 template <class T>
 struct AbiWorkspace {
+  static constexpr int kHalf = kAbiLanes<T> > 1 ? kAbiLanes<T> / 2 : 1;
   std::vector<AbiLanes<T, kAbiLanes<T>>> wide;
+  std::vector<AbiLanes<T, kHalf>> half;
   std::vector<AbiLanes<T, 1>> narrow;
 
   explicit AbiWorkspace(const Model& m, int threads = 1)
-      : wide(threads, AbiLanes<T, kAbiLanes<T>>(m)), narrow(threads, AbiLanes<T, 1>(m)) {}
+      : wide(threads, AbiLanes<T, kAbiLanes<T>>(m)), half(threads, AbiLanes<T, kHalf>(m)),
+        narrow(threads, AbiLanes<T, 1>(m)) {}
   int threads() const { return static_cast<int>(wide.size()); }
 };
 
@@ -217,58 +223,74 @@ MINV_FLATTEN void abiInverseBlock(const Model& model, const Kinematics<T>& kin, 
     for (int v = v0; v <= c0 + w; ++v) x[v + (c0 + w) * ld] = ws.u[v](w);
 }
 
-// The lower triangle from the upper one, X(i, j) = X(j, i) for i > j: b×b tiles, each read
-// whole into a buffer in L1 and written out, within B×B tiles whose pages stay in the TLB.
-// Tile columns run in OpenMP threads.
+// The lower triangle from the upper one, X(i, j) = X(j, i) for i > j, in the B×B tile of
+// rows i0 … and columns j0 … (whose pages stay in the TLB): b×b tiles, each read whole into a
+// buffer in L1 and written out.
+inline constexpr int kMirrorTile = 256;
 template <class T>
-void mirrorUpper(MatX<T>& X, int threads) {
-  constexpr int B = 256, b = 16;
+MINV_FLATTEN void mirrorTile(MatX<T>& X, int i0, int j0) {
+  constexpr int b = 16;
   const int n = static_cast<int>(X.rows());
+  const int iE = std::min(i0 + kMirrorTile, n), jE = std::min(j0 + kMirrorTile, n);
   const std::size_t ld = X.rows();
   T* x = X.data();
-#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) if (threads > 1)
-  for (int jB = 0; jB < n; jB += B)
-    for (int iB = jB; iB < n; iB += B)
-      for (int jb = jB; jb < std::min(jB + B, n); jb += b)
-        for (int ib = std::max(iB, jb); ib < std::min(iB + B, n); ib += b) {
-          if (ib >= jb + b && ib + b <= n) {
-            // A whole tile below the diagonal: t = X(jb…, ib…), then X(ib…, jb…) = tᵀ.
-            T t[b][b];
-            for (int i = 0; i < b; ++i)
-              for (int j = 0; j < b; ++j) t[i][j] = x[jb + j + (ib + i) * ld];
-            for (int j = 0; j < b; ++j)
-              for (int i = 0; i < b; ++i) x[ib + i + (jb + j) * ld] = t[i][j];
-            continue;
-          }
-          // A tile on the diagonal or the last rows: entry by entry.
-          for (int j = jb; j < std::min(jb + b, n); ++j)
-            for (int i = std::max(ib, j + 1); i < std::min(ib + b, n); ++i) x[i + j * ld] = x[j + i * ld];
-        }
+  for (int jb = j0; jb < jE; jb += b)
+    for (int ib = std::max(i0, jb); ib < iE; ib += b) {
+      if (ib >= jb + b && ib + b <= iE && jb + b <= jE) {
+        // A whole tile below the diagonal: t = X(jb…, ib…), then X(ib…, jb…) = tᵀ.
+        T t[b][b];
+        for (int i = 0; i < b; ++i)
+          for (int j = 0; j < b; ++j) t[i][j] = x[jb + j + (ib + i) * ld];
+        for (int j = 0; j < b; ++j)
+          for (int i = 0; i < b; ++i) x[ib + i + (jb + j) * ld] = t[i][j];
+        continue;
+      }
+      // A tile on the diagonal or at the edge: entry by entry.
+      for (int j = jb; j < std::min(jb + b, jE); ++j)
+        for (int i = std::max(ib, j + 1); i < std::min(ib + b, iE); ++i) x[i + j * ld] = x[j + i * ld];
+    }
 }
 
-// Stages "impulse propagation" and "velocity updates" for all columns: Minv = M⁻¹.
+// Stages "impulse propagation" and "velocity updates" for all columns: Minv = M⁻¹. Blocks of
+// W columns (a last block of at most W/2 columns runs half as wide), then the mirror.
 template <class T, class Mark = NoMark>
 void abiInverse(const Model& model, const Kinematics<T>& kin, const Articulated<T>& art,
                 AbiWorkspace<T>& ws, MatX<T>& Minv, Mark&& mark = {}) {
   constexpr int W = kAbiLanes<T>;
-  const int blocks = (model.nv() + W - 1) / W;
-  if constexpr (std::is_same_v<std::decay_t<Mark>, NoMark>) {
-    // Blocks are independent; later blocks cost more, so hand them out dynamically.
-#pragma omp parallel for schedule(dynamic, 1) num_threads(ws.threads()) if (ws.threads() > 1)
-    for (int b = 0; b < blocks; ++b) {
-      NoMark none;
-      abiInverseBlock<T, W>(model, kin, art, ws.wide[omp_thread()], b * W, Minv, none);
-    }
-  } else {
-    for (int b = 0; b < blocks; ++b) abiInverseBlock<T, W>(model, kin, art, ws.wide[0], b * W, Minv, mark);
+  const int nv = model.nv(), blocks = (nv + W - 1) / W;
+  const bool halfLast = W > 1 && nv - (blocks - 1) * W <= W / 2;
+  const int tiles = (nv + kMirrorTile - 1) / kMirrorTile;
+  auto block = [&](int b, int thread, auto& mk) {
+    if (b == blocks - 1 && halfLast)
+      abiInverseBlock<T, AbiWorkspace<T>::kHalf>(model, kin, art, ws.half[thread], b * W, Minv, mk);
+    else
+      abiInverseBlock<T, W>(model, kin, art, ws.wide[thread], b * W, Minv, mk);
+  };
+  if (ws.threads() == 1 || !std::is_same_v<std::decay_t<Mark>, NoMark>) {
+    for (int b = 0; b < blocks; ++b) block(b, 0, mark);
+    for (int tj = 0; tj < tiles; ++tj)
+      for (int ti = tj; ti < tiles; ++ti) mirrorTile(Minv, ti * kMirrorTile, tj * kMirrorTile);
+    return;
   }
-  mirrorUpper(Minv, ws.threads());
+#pragma omp parallel num_threads(ws.threads())
+  {
+    NoMark none;
+    // Blocks are independent; later ones cost more: the costliest first, handed out as
+    // threads come free.
+#pragma omp for schedule(dynamic, 1)
+    for (int r = 0; r < blocks; ++r) block(blocks - 1 - r, omp_thread(), none);
+    // Then the lower triangle, tile by tile.
+#pragma omp for schedule(dynamic, 1)
+    for (int t = 0; t < tiles * tiles; ++t)
+      if (t % tiles >= t / tiles) mirrorTile(Minv, (t % tiles) * kMirrorTile, (t / tiles) * kMirrorTile);
+  }
 }
 
 // Columns c0 … c0+W−1 of X = M⁻¹R: the full backward sweep, then the full forward sweep.
 template <class T, int W, class Mark>
-void abiSolveBlock(const Model& model, const Kinematics<T>& kin, const Articulated<T>& art,
-                   AbiLanes<T, W>& ws, const MatX<T>& R, int c0, MatX<T>& X, Mark& mark) {
+MINV_FLATTEN void abiSolveBlock(const Model& model, const Kinematics<T>& kin,
+                                const Articulated<T>& art, AbiLanes<T, W>& ws, const MatX<T>& R,
+                                int c0, MatX<T>& X, Mark& mark) {
   const int nb = model.nb(), nv = model.nv();
   const int width = std::min<int>(W, static_cast<int>(R.cols()) - c0);
   // r: the right-hand sides, one per lane (unused lanes zero); Y is zero between blocks.
@@ -285,25 +307,32 @@ void abiSolveBlock(const Model& model, const Kinematics<T>& kin, const Articulat
     for (int v = 0; v < nv; ++v) X(v, c0 + w) = ws.u[v](w);
 }
 
-// X = M⁻¹R, W columns at a time (one at a time when R has fewer columns than half a block).
+// X = M⁻¹R, W columns at a time; a block of at most W/2 columns runs half as wide, and a
+// single column one lane wide.
 template <class T, class Mark = NoMark>
 void abiSolve(const Model& model, const Kinematics<T>& kin, const Articulated<T>& art,
               AbiWorkspace<T>& ws, const MatX<T>& R, MatX<T>& X, Mark&& mark = {}) {
   constexpr int W = kAbiLanes<T>;
-  const int m = static_cast<int>(R.cols());
-  if (W > 1 && 2 * m < W) {
-    for (int c = 0; c < m; ++c) abiSolveBlock<T, 1>(model, kin, art, ws.narrow[0], R, c, X, mark);
+  const int m = static_cast<int>(R.cols()), blocks = (m + W - 1) / W;
+  auto block = [&](int b, int thread, auto& mk) {
+    const int width = std::min(W, m - b * W);
+    if (W > 1 && width == 1)
+      abiSolveBlock<T, 1>(model, kin, art, ws.narrow[thread], R, b * W, X, mk);
+    else if (2 * width <= W)
+      abiSolveBlock<T, AbiWorkspace<T>::kHalf>(model, kin, art, ws.half[thread], R, b * W, X, mk);
+    else
+      abiSolveBlock<T, W>(model, kin, art, ws.wide[thread], R, b * W, X, mk);
+  };
+  if (ws.threads() == 1 || blocks == 1 || !std::is_same_v<std::decay_t<Mark>, NoMark>) {
+    for (int b = 0; b < blocks; ++b) block(b, 0, mark);
     return;
   }
-  const int blocks = (m + W - 1) / W;
-  if constexpr (std::is_same_v<std::decay_t<Mark>, NoMark>) {
-#pragma omp parallel for schedule(static) num_threads(ws.threads()) if (ws.threads() > 1)
-    for (int b = 0; b < blocks; ++b) {
-      NoMark none;
-      abiSolveBlock<T, W>(model, kin, art, ws.wide[omp_thread()], R, b * W, X, none);
-    }
-  } else {
-    for (int b = 0; b < blocks; ++b) abiSolveBlock<T, W>(model, kin, art, ws.wide[0], R, b * W, X, mark);
+#pragma omp parallel num_threads(ws.threads())
+  {
+    NoMark none;
+    // Every block sweeps the whole tree: equal costs, handed out in equal shares.
+#pragma omp for schedule(static)
+    for (int b = 0; b < blocks; ++b) block(b, omp_thread(), none);
   }
 }
 
