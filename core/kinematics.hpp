@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cmath>
+#include <type_traits>
 #include <vector>
 
 #include "core/counting.hpp"
@@ -69,17 +70,25 @@ Pose<T> jointPose(const Joint& j, const VecX<T>& q, int o) {
 }
 
 // Stage "spatial axes": poses ⁰X_i and world-frame motion subspaces S_i; one mark per body.
+// With threads > 1 (and no marks) the per-body steps are shared among OpenMP threads and only
+// the composition along the tree runs in order.
 template <class T, class Mark = NoMark>
 void forwardKinematics(const Model& model, const VecX<T>& q, Kinematics<T>& kin,
-                       Mark&& mark = {}) {
-  for (int i = 0; i < model.nb(); ++i) {
+                       Mark&& mark = {}, int threads = 1) {
+  // The joint's pose in its parent's frame: placement · X_J(q_i).
+  auto local = [&](int i) {
     const Joint& j = model.joint(i);
-    const int p = model.parent(i), v = model.vIdx(i);
-    // ⁰X_i = ⁰X_λ(i) · placement · X_J(q_i)
-    const Pose<T> place = castPose<T>(j.placement);
-    kin.X[i] = (p < 0 ? place : kin.X[p] * place) * jointPose<T>(j, q, model.qIdx(i));
+    kin.X[i] = castPose<T>(j.placement) * jointPose<T>(j, q, model.qIdx(i));
+  };
+  // ⁰X_i = ⁰X_λ(i) · (placement · X_J), parents first.
+  auto compose = [&](int i) {
+    if (model.parent(i) >= 0) kin.X[i] = kin.X[model.parent(i)] * kin.X[i];
+  };
+  // S_i: the joint's body-frame subspace carried to world coordinates.
+  auto axes = [&](int i) {
+    const Joint& j = model.joint(i);
     const Pose<T>& X = kin.X[i];
-    // S_i: the joint's body-frame subspace carried to world coordinates.
+    const int v = model.vIdx(i);
     switch (j.type) {
       case JointType::Revolute: {
         const Vec3<T> w = X.R * j.axis.cast<T>();
@@ -99,28 +108,55 @@ void forwardKinematics(const Model& model, const VecX<T>& q, Kinematics<T>& kin,
         }
         break;
     }
+  };
+  const int nb = model.nb();
+  if (threads > 1 && std::is_same_v<std::decay_t<Mark>, NoMark>) {
+#pragma omp parallel num_threads(threads)
+    {
+#pragma omp for schedule(static)
+      for (int i = 0; i < nb; ++i) local(i);
+#pragma omp single
+      for (int i = 0; i < nb; ++i) compose(i);
+#pragma omp for schedule(static)
+      for (int i = 0; i < nb; ++i) axes(i);
+    }
+    return;
+  }
+  for (int i = 0; i < nb; ++i) {
+    local(i);
+    compose(i);
+    axes(i);
     mark("spatial axes");
   }
 }
 
 // Stage "isolated inertias": I_i = mcI(m, ⁰c_i, R Ī Rᵀ) about the world origin; a mark per body.
+// Bodies are independent: with threads > 1 (and no marks) they are shared among OpenMP threads.
 template <class T, class Mark = NoMark>
-void worldInertias(const Model& model, Kinematics<T>& kin, Mark&& mark = {}) {
-  for (int i = 0; i < model.nb(); ++i) {
+void worldInertias(const Model& model, Kinematics<T>& kin, Mark&& mark = {}, int threads = 1) {
+  auto body = [&](int i) {
     const Body& b = model.body(i);
     const Pose<T>& X = kin.X[i];
     const Vec3<T> c = X.p + X.R * b.com.cast<T>();
     const Mat3<T> Ic = X.R * b.inertia.cast<T>() * X.R.transpose();
     kin.I[i] = mcI<T>(T(b.mass), c, Ic);
+  };
+  if (threads > 1 && std::is_same_v<std::decay_t<Mark>, NoMark>) {
+#pragma omp parallel for schedule(static) num_threads(threads)
+    for (int i = 0; i < model.nb(); ++i) body(i);
+    return;
+  }
+  for (int i = 0; i < model.nb(); ++i) {
+    body(i);
     mark("isolated inertias");
   }
 }
 
-// Both stages.
+// Both stages; the second on `threads` OpenMP threads.
 template <class T>
-void computeKinematics(const Model& model, const VecX<T>& q, Kinematics<T>& kin) {
-  forwardKinematics(model, q, kin);
-  worldInertias(model, kin);
+void computeKinematics(const Model& model, const VecX<T>& q, Kinematics<T>& kin, int threads = 1) {
+  forwardKinematics(model, q, kin, NoMark{}, threads);
+  worldInertias(model, kin, NoMark{}, threads);
 }
 
 }  // namespace minv

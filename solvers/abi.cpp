@@ -23,7 +23,7 @@ void AbiSolver::prepare(const Model& model) {
 }
 
 void AbiSolver::configure(const Eigen::VectorXd& q) {
-  computeKinematics<double>(*model_, q, *kin_);
+  computeKinematics<double>(*model_, q, *kin_, threads_);
   articulatedInertias<double>(*model_, *kin_, *art_);
 }
 
