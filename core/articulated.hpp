@@ -81,7 +81,10 @@ void articulatedInertias(const Model& model, const Kinematics<T>& kin, Articulat
       art.U.col(v) = U;
       art.Dinv[i](0, 0) = dinv;
       art.UDinv.col(v) = U * dinv;
-      if (p >= 0) art.IA[p] += art.IA[i] - art.UDinv.col(v) * U.transpose();
+      if (p >= 0) {
+        art.IA[p] += art.IA[i];
+        art.IA[p].noalias() -= art.UDinv.col(v) * U.transpose();
+      }
       continue;
     }
     // U_i = IA_i S_i, D_i = S_iᵀ U_i, D_i⁻¹, U_i D_i⁻¹.

@@ -139,7 +139,7 @@ void worldInertias(const Model& model, Kinematics<T>& kin, Mark&& mark = {}, int
     const Pose<T>& X = kin.X[i];
     const Vec3<T> c = X.p + X.R * b.com.cast<T>();
     const Mat3<T> Ic = X.R * b.inertia.cast<T>() * X.R.transpose();
-    kin.I[i] = mcI<T>(T(b.mass), c, Ic);
+    mcI<T>(T(b.mass), c, Ic, kin.I[i]);
   };
   if (threads > 1 && std::is_same_v<std::decay_t<Mark>, NoMark>) {
 #pragma omp parallel for schedule(static) num_threads(threads)

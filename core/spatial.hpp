@@ -57,13 +57,17 @@ Mat6<T> crossF(const Vec6<T>& v) {
 // Spatial inertia of a body of mass m, centre of mass c and rotational inertia Ī_c about c,
 // expressed about the origin of the frame c is given in (RBDA eq. 2.63).
 template <class T>
-Mat6<T> mcI(const T& m, const Vec3<T>& c, const Mat3<T>& Ic) {
+void mcI(const T& m, const Vec3<T>& c, const Mat3<T>& Ic, Mat6<T>& I) {
   const Mat3<T> C = skew<T>(c);
-  Mat6<T> I;
   I.template topLeftCorner<3, 3>() = Ic + m * C * C.transpose();
   I.template topRightCorner<3, 3>() = m * C;
   I.template bottomLeftCorner<3, 3>() = m * C.transpose();
   I.template bottomRightCorner<3, 3>() = m * Mat3<T>::Identity();
+}
+template <class T>
+Mat6<T> mcI(const T& m, const Vec3<T>& c, const Mat3<T>& Ic) {
+  Mat6<T> I;
+  mcI<T>(m, c, Ic, I);
   return I;
 }
 
