@@ -19,9 +19,11 @@ struct Articulated {
   Mat6N<T> U;               // U = IA T, column per DOF
   Mat6N<T> UDinv;           // U D⁻¹, column per DOF
   std::vector<MatK<T>> Dinv;  // D⁻¹ per body, k×k
+  VecX<T> dinv;               // D⁻¹ of each one-DOF body at its DOF: dense, for the sweeps
 
   explicit Articulated(const Model& m)
-      : IA(m.nb()), U(Mat6N<T>::Zero(6, m.nv())), UDinv(Mat6N<T>::Zero(6, m.nv())), Dinv(m.nb()) {
+      : IA(m.nb()), U(Mat6N<T>::Zero(6, m.nv())), UDinv(Mat6N<T>::Zero(6, m.nv())), Dinv(m.nb()),
+        dinv(VecX<T>::Zero(m.nv())) {
     for (int i = 0; i < m.nb(); ++i) Dinv[i] = MatK<T>::Zero(m.nvOf(i), m.nvOf(i));
   }
 };
@@ -79,7 +81,7 @@ void articulatedInertias(const Model& model, const Kinematics<T>& kin, Articulat
       const Vec6<T> U = art.IA[i] * kin.S.col(v);
       const T dinv = T(1) / kin.S.col(v).dot(U);
       art.U.col(v) = U;
-      art.Dinv[i](0, 0) = dinv;
+      art.Dinv[i](0, 0) = art.dinv(v) = dinv;
       art.UDinv.col(v) = U * dinv;
       if (p >= 0) {
         art.IA[p] += art.IA[i];

@@ -1,14 +1,18 @@
 // Issue 7's benchmarks: `abi` against the field, side by side in one run, as ratios.
 //
-//   build/bench_abi [--full] [--out results/perf.h5] [--memory-n N] [benchmark flags]
+//   build/bench_abi [--full] [--out results/perf.h5] [benchmark flags]
+//   build/bench_abi --memory-n N [--out results/perf_memory.h5]
 //
 // Google Benchmark times, single thread (BLAS threads 1) unless stated, medians of 5
-// repetitions, each of them the pipeline from a configuration q: configure(q) (kinematics +
-// CRBA + factor, or kinematics + articulated inertias) then inverse() for M⁻¹ or solve(R) for
-// M⁻¹R with m = 8 (--full: m ∈ {1, 8, 64}, n to 4096). Beside them: a store of n² doubles (the memory floor: the time to
-// write the output at all), OpenBLAS dgemm's rate on the same core, abi's counted flops
-// (its own kernels on the counting scalar) per second, and abi on 2 threads.
-// Every raw repetition, the medians, the ratios and the provenance go to one HDF5 file.
+// repetitions run in a random interleaved order, each of them the pipeline from a
+// configuration q: configure(q) (kinematics + CRBA + factor, or kinematics + articulated
+// inertias) then inverse() for M⁻¹ or solve(R) for M⁻¹R with m = 8 (--full: m ∈ {1, 8, 64}).
+// n from 8 to 4096 (quick mode: the serial chain only at 4096, cubic peers stop earlier).
+// Beside them: a store of n² doubles (the memory floor: the time to write the output at all),
+// OpenBLAS dgemm's rate on the same core, abi's counted flops (its own kernels on the counting
+// scalar) per second, abi on 2 threads, and abi's parts (configure, sweeps, writes of the
+// output): where its time goes. Every raw repetition, the medians, the ratios, the parts and
+// the provenance go to one HDF5 file (a run with --benchmark_filter writes none unless --out).
 // --memory-n N inverts one serial chain of n = N (N² doubles of output) and reports the peak
 // resident memory beyond the output: the scratch is O(n·W), not O(n²).
 #include <benchmark/benchmark.h>
@@ -50,11 +54,13 @@ const Problem& problem(Topology t, int n) {
   return *p;
 }
 
-// Which solvers reach which n, as data: dense-cubic peers stop early in quick mode.
-int maxN(const std::string& solver, bool full) {
+// Which solvers reach which n, as data: dense-cubic peers stop early in quick mode, and in
+// quick mode only the serial chain (the issue's targets) goes to n = 4096.
+int maxN(const std::string& solver, bool full, Topology t) {
   if (solver == "mujoco") return full ? 512 : 256;  // its compiler is cubic: 11 s at n = 1000
   if (solver == "ltdl") return full ? 2048 : 512;  // cubic on chains: 3.6 s at n = 1024, m = 64
-  return full ? 4096 : 2048;
+  if (solver == "eigen") return full ? 4096 : 2048;  // 35 s at n = 4096
+  return full || t == Topology::Serial ? 4096 : 2048;
 }
 
 struct Median {
@@ -109,11 +115,46 @@ void registerSolver(const std::string& solver, Topology t, int n, int m, int thr
   })->Unit(benchmark::kNanosecond)->UseRealTime();
 }
 
+// abi's parts on the serial chain, one thread: configure (kinematics + articulated
+// inertias), the sweeps alone, and the blocks (sweeps + writing each block's strips of M⁻¹:
+// the inverse). Where the time of inverse/serial/abi goes.
+void registerParts(int n) {
+  for (const char* part : {"configure", "sweeps", "blocks"}) {
+    const std::string name = "parts/serial/" + std::string(part) + "/" + std::to_string(n);
+    benchmark::RegisterBenchmark(name.c_str(), [=](benchmark::State& state) {
+      const Problem& p = problem(Topology::Serial, n);
+      const Model& m = p.model;
+      Kinematics<double> kin(m);
+      Articulated<double> art(m);
+      AbiWorkspace<double> ws(m);
+      computeKinematics<double>(m, p.q, kin);
+      articulatedInertias<double>(m, kin, art);
+      Eigen::MatrixXd X = Eigen::MatrixXd::Zero(n, n);
+      constexpr int W = kAbiLanes<double>;
+      const std::string what = part;
+      NoMark none;
+      for (auto _ : state) {
+        if (what == "configure") {
+          computeKinematics<double>(m, p.q, kin);
+          articulatedInertias<double>(m, kin, art);
+        } else if (what == "sweeps") {
+          for (int c0 = 0; c0 + W <= n; c0 += W) {
+            abiBackward<double, W, true>(m, kin, art, ws.wide[0], m.dofBody(c0 + W - 1), c0, W);
+            abiForward<double, W>(m, kin, art, ws.wide[0], m.dofBody(c0 + W - 1));
+          }
+        } else {
+          for (int c0 = 0; c0 + W <= n; c0 += W)
+            abiInverseBlock<double, W>(m, kin, art, ws.wide[0], c0, X, none);
+        }
+        benchmark::DoNotOptimize(X.data());
+        benchmark::ClobberMemory();
+      }
+    })->Unit(benchmark::kNanosecond)->UseRealTime();
+  }
+}
+
 void registerAll(bool full) {
-  const std::vector<int> sizes = full ? std::vector<int>{8, 16, 32, 64, 128, 256, 512, 1024,
-                                                         2048, 4096}
-                                      : std::vector<int>{8, 16, 32, 64, 128, 256, 512, 1024,
-                                                         2048};
+  const std::vector<int> sizes = {8, 16, 32, 64, 128, 256, 512, 1024, 2048, 4096};
   std::vector<std::string> peers;
   for (const char* s : {"abi", "lapack", "eigen", "ltdl", "mujoco"})
     if (std::find(solverNames().begin(), solverNames().end(), s) != solverNames().end())
@@ -121,12 +162,13 @@ void registerAll(bool full) {
   for (Topology t : {Topology::Serial, Topology::Branched})
     for (int n : sizes) {
       for (const std::string& s : peers) {
-        if (n > maxN(s, full)) continue;
+        if (n > maxN(s, full, t)) continue;
         registerSolver(s, t, n, 0, 1);
         for (int m : full ? std::vector<int>{1, 8, 64} : std::vector<int>{8})
           registerSolver(s, t, n, m, 1);
       }
-      if (n >= 256) registerSolver("abi", t, n, 0, 2);
+      if (n >= 256 && n <= maxN("abi", full, t)) registerSolver("abi", t, n, 0, 2);
+      if (n >= 256 && t == Topology::Serial) registerParts(n);
     }
   for (int n : sizes) {
     // The memory floor: write n² doubles.
@@ -139,8 +181,8 @@ void registerAll(bool full) {
         benchmark::ClobberMemory();
       }
     })->Unit(benchmark::kNanosecond)->UseRealTime();
-    // OpenBLAS dgemm, n×n×n, one thread.
-    if (n >= 64)
+    // OpenBLAS dgemm, n×n×n, one thread (to n = 2048 in quick mode: 3.4 s a call at 4096).
+    if (n >= 64 && (full || n <= 2048))
       benchmark::RegisterBenchmark(("dgemm/" + std::to_string(n)).c_str(), [n](benchmark::State& st) {
         Eigen::MatrixXd A = Eigen::MatrixXd::Random(n, n), B = A, C(n, n);
         for (auto _ : st) {
@@ -160,20 +202,31 @@ double abiFlops(Topology t, int n) {
   return f;
 }
 
+// The result file's vectors, or nothing when no file is written.
+struct ScratchWriter {
+  H5Writer* file;
+  void writeVector(const std::string& path, const std::vector<double>& v) {
+    if (file) file->writeVector(path, v);
+  }
+};
+
 double med(const std::string& name) {
   auto it = medians.find(name);
   return it == medians.end() ? 0 : it->second.median;
 }
 
-// The ratio table and the result file.
+// The ratio table, and the result file unless `out` is empty (a filtered run).
 void report(bool full, const std::string& out) {
-  H5Writer h5(out);
-  writeProvenance(h5);
-  h5.setAttribute("/", "experiment", "perf");
-  h5.setAttribute("/", "mode", full ? "full" : "quick");
-  for (const auto& [name, m] : medians) {
-    h5.writeVector("runs/" + name + "/repetitions_s", m.reps);
-    h5.setAttribute("runs/" + name, "median_s", m.median);
+  std::unique_ptr<H5Writer> file = out.empty() ? nullptr : std::make_unique<H5Writer>(out);
+  ScratchWriter h5(file.get());
+  if (file) {
+    writeProvenance(*file);
+    file->setAttribute("/", "experiment", "perf");
+    file->setAttribute("/", "mode", full ? "full" : "quick");
+    for (const auto& [name, m] : medians) {
+      file->writeVector("runs/" + name + "/repetitions_s", m.reps);
+      file->setAttribute("runs/" + name, "median_s", m.median);
+    }
   }
   for (Topology t : {Topology::Serial, Topology::Branched}) {
     const std::string T = topologyName(t);
@@ -213,12 +266,38 @@ void report(bool full, const std::string& out) {
     for (int c = 0; c < 10; ++c) h5.writeVector("ratios/" + T + "/" + names[c], cols[c]);
     std::printf("(0.00 = not measured at that n)\n");
   }
-  h5.commit();
+  // Where abi's time goes on the serial chain (one thread).
+  std::printf("\nserial, abi's parts (one thread), medians in us: inverse = sweeps + writes "
+              "(of M^-1's entries); pipeline = configure + inverse\n");
+  std::printf("%6s %10s %10s %10s %10s %10s %10s\n", "n", "configure", "sweeps", "writes",
+              "inverse", "store", "pipeline");
+  std::vector<double> pn, parts[6];
+  for (int n : {256, 512, 1024, 2048, 4096}) {
+    const std::string N = std::to_string(n);
+    const double c = med("parts/serial/configure/" + N), sw = med("parts/serial/sweeps/" + N),
+                 bl = med("parts/serial/blocks/" + N);
+    if (c == 0) continue;
+    const double row[6] = {c * 1e6, sw * 1e6, (bl - sw) * 1e6, bl * 1e6,
+                           med("store/" + N) * 1e6, med("inverse/serial/abi/" + N) * 1e6};
+    std::printf("%6d %10.1f %10.1f %10.1f %10.1f %10.1f %10.1f\n", n, row[0], row[1], row[2],
+                row[3], row[4], row[5]);
+    pn.push_back(n);
+    for (int k = 0; k < 6; ++k) parts[k].push_back(row[k]);
+  }
+  const char* pnames[6] = {"configure_us", "sweeps_us", "writes_us", "inverse_us", "store_us",
+                           "pipeline_us"};
+  if (!pn.empty()) {
+    h5.writeVector("parts/serial/n", pn);
+    for (int k = 0; k < 6; ++k) h5.writeVector("parts/serial/" + std::string(pnames[k]), parts[k]);
+  }
+  if (!file) return;
+  file->commit();
   std::printf("\nwrote %s\n", out.c_str());
 }
 
-// One inverse of an n-chain; peak resident memory beyond the n² output.
-int memoryRun(int n) {
+// One inverse of an n-chain; peak resident memory beyond the n² output, printed and written
+// (with the provenance) to `out`.
+int memoryRun(int n, const std::string& out) {
   const Problem& p = problem(Topology::Serial, n);
   AbiSolver s;
   s.prepare(p.model);
@@ -232,13 +311,23 @@ int memoryRun(int n) {
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   rusage after{};
   getrusage(RUSAGE_SELF, &after);
-  const double out_mib = 8.0 * n * n / (1 << 20);
+  const double out_mib = 8.0 * n * n / (1 << 20), peak = after.ru_maxrss / 1024.0;
+  const double growth = (after.ru_maxrss - before.ru_maxrss) / 1024.0;
+  const bool finite = X.allFinite();
   std::printf("memory: n = %d, M^-1 is %.0f MiB; inverse took %.2f s; peak RSS %.0f MiB "
               "(%.1f MiB beyond the output); rss growth during configure+inverse %.1f MiB; "
               "finite: %s\n",
-              n, out_mib, secs, after.ru_maxrss / 1024.0, after.ru_maxrss / 1024.0 - out_mib,
-              (after.ru_maxrss - before.ru_maxrss) / 1024.0, X.allFinite() ? "yes" : "no");
-  return X.allFinite() ? 0 : 1;
+              n, out_mib, secs, peak, peak - out_mib, growth, finite ? "yes" : "no");
+  H5Writer h5(out);
+  writeProvenance(h5);
+  h5.setAttribute("/", "experiment", "perf_memory");
+  h5.writeVector("n", std::vector<double>{double(n)});
+  h5.writeVector("seconds", std::vector<double>{secs});
+  h5.writeVector("output_mib", std::vector<double>{out_mib});
+  h5.writeVector("peak_rss_mib", std::vector<double>{peak});
+  h5.writeVector("rss_growth_mib", std::vector<double>{growth});
+  h5.commit();
+  return finite ? 0 : 1;
 }
 
 }  // namespace
@@ -248,7 +337,7 @@ int main(int argc, char** argv) {
   using namespace minv;
   bool full = false;
   int memory_n = 0;
-  std::string out = "results/perf.h5";
+  std::string out;
   // Our flags first; the rest go to Google Benchmark.
   std::vector<char*> rest = {argv[0]};
   for (int i = 1; i < argc; ++i) {
@@ -263,7 +352,21 @@ int main(int argc, char** argv) {
     }
   }
   silenceHdf5Errors();
-  if (memory_n > 0) return memoryRun(memory_n);
+  // A filtered or listing run prints its table but writes no result file unless asked to.
+  bool partial = false;
+  for (char* a : rest)
+    partial |= !std::strncmp(a, "--benchmark_filter", 18) ||
+               !std::strncmp(a, "--benchmark_list_tests", 22);
+  if (out.empty() && !(partial && memory_n == 0))
+    out = memory_n > 0 ? "results/perf_memory.h5" : "results/perf.h5";
+  if (memory_n > 0) {
+    try {
+      return memoryRun(memory_n, out);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "bench_abi: error: %s\n", e.what());
+      return 2;
+    }
+  }
   // Repetitions of all benchmarks run in a random interleaved order, so a slow spell of this
   // shared machine falls on every solver alike rather than on one of a pair being compared.
   std::string reps = "--benchmark_repetitions=5", mint = "--benchmark_min_time=0.02",

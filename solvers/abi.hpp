@@ -14,8 +14,8 @@
 // Savings: U, D⁻¹ and U D⁻¹ are computed once per configuration (§5.2; core/articulated.hpp).
 // For a unit column e_c at body b only b's ancestors carry a non-zero Y (§5.2), and since M⁻¹
 // is symmetric only the rows of bodies 0 … b are needed (bodies are numbered parent first, so
-// their Δv never needs a later body): both sweeps stop at b, the columns are written down to
-// the diagonal and the lower triangle is mirrored from them. Columns go in blocks of W lanes
+// their Δv never needs a later body): both sweeps stop at b, and each block writes its
+// columns above the diagonal and, by symmetry, its rows left of it. Columns go in blocks of W lanes
 // (W = kAbiLanes<T>: 16 for double, 1 for the counting scalar), one lane per column, so every
 // update is a W-wide vector operation; along a chain Y and Δv pass from body to body without
 // a store; blocks run in OpenMP threads (setThreads). Multi-DOF joints make D a k×k block.
@@ -66,10 +66,11 @@ struct AbiLanes {
   // gather[i]: body i has a child other than i + 1. Along a chain (parent(i + 1) = i) Y and Δv
   // pass from body to body in registers; only at such branch points do they go through memory.
   std::vector<char> gather;
+  std::vector<char> held;  // held[i]: Y[i] holds a share left by a child (backward sweep)
 
   explicit AbiLanes(const Model& m)
       : Y(m.nb(), Spatial::Zero()), dv(m.nb(), Spatial::Zero()), u(m.nv(), Lane::Zero()),
-        gather(m.nb(), 0) {
+        gather(m.nb(), 0), held(m.nb(), 0) {
     for (int j = 1; j < m.nb(); ++j)
       if (m.parent(j) >= 0 && m.parent(j) != j - 1) gather[m.parent(j)] = 1;
   }
@@ -120,19 +121,29 @@ inline void abiBackwardBody(const Kinematics<T>& kin, const Articulated<T>& art,
 
 // Backward sweep from body `last` to the roots: u_i = r_i − S_iᵀ Y_i, Y_λ(i) += Y_i + U_i D_i⁻¹ u_i.
 // r is either the unit impulses e_{c0+w} (Unit; ws.u is then written, not read) or held in
-// ws.u on entry. ws.Y is zero on entry and again on exit (each entry is cleared once gathered).
+// ws.u on entry. With unit impulses only their bodies' ancestors carry a Y (§5.2): any other
+// body has u = 0 and is skipped. ws.Y is zero on entry and again on exit (each entry is
+// cleared once gathered).
 template <class T, int W, bool Unit>
-MINV_FLATTEN void abiBackward(const Model& model, const Kinematics<T>& kin, const Articulated<T>& art,
-                 AbiLanes<T, W>& ws, int last, int c0 = 0, int width = 0) {
+MINV_FLATTEN void abiBackward(const Model& model, const Kinematics<T>& kin,
+                              const Articulated<T>& art, AbiLanes<T, W>& ws, int last, int c0 = 0,
+                              int width = 0) {
   typename AbiLanes<T, W>::Spatial Y;  // Y_i of the current body
   bool carried = false;                // Y holds what child i + 1 handed up
   for (int i = last; i >= 0; --i) {
     const int v = model.vIdx(i), k = model.nvOf(i), p = model.parent(i);
+    const bool gathered = ws.held[i];  // other children left a share in memory
+    // A body with no impulse of its own and nothing from its children: u = 0, nothing to hand up.
+    if (Unit && !carried && !gathered && (v + k <= c0 || v >= c0 + width)) {
+      for (int j = 0; j < k; ++j) ws.u[v + j].setZero();
+      continue;
+    }
     // Y_i: carried up the chain from i + 1, plus what other children left in memory.
     if (!carried) Y.setZero();
-    if (ws.gather[i]) {
+    if (gathered) {
       Y += ws.Y[i];
       ws.Y[i].setZero();
+      ws.held[i] = 0;
     }
     // u_i, and Y_i + U_i D_i⁻¹ u_i for the parent.
     if (k == 1)
@@ -141,7 +152,10 @@ MINV_FLATTEN void abiBackward(const Model& model, const Kinematics<T>& kin, cons
       abiBackwardBody<T, W, Unit, 0>(kin, art, ws, Y, v, k, p < 0, c0, width);
     // Carried on along a chain, else left in memory.
     carried = p >= 0 && p == i - 1;
-    if (p >= 0 && !carried) ws.Y[p] += Y;
+    if (p >= 0 && !carried) {
+      ws.Y[p] += Y;
+      ws.held[p] = 1;
+    }
   }
 }
 
@@ -155,8 +169,12 @@ inline void abiForwardBody(const Kinematics<T>& kin, const Articulated<T>& art, 
   Lane qd[K > 0 ? K : 6];
   for (int j = 0; j < k; ++j) {
     // Δq̇_j, the 6-term dot product as two halves
-    qd[j] = art.Dinv[i](j, 0) * ws.u[v];
-    for (int l = 1; l < k; ++l) qd[j] += art.Dinv[i](j, l) * ws.u[v + l];
+    if constexpr (K == 1) {
+      qd[j] = art.dinv(v) * ws.u[v];
+    } else {
+      qd[j] = art.Dinv[i](j, 0) * ws.u[v];
+      for (int l = 1; l < k; ++l) qd[j] += art.Dinv[i](j, l) * ws.u[v + l];
+    }
     if (!root) {
       const auto UD = art.UDinv.col(v + j);
       qd[j] -= (UD(0) * dv.row(0) + UD(1) * dv.row(1) + UD(2) * dv.row(2)) +
@@ -175,11 +193,21 @@ inline void abiForwardBody(const Kinematics<T>& kin, const Articulated<T>& art, 
   }
 }
 
-// Forward sweep over bodies 0 … last: Δq̇_i = D_i⁻¹ u_i − (U_i D_i⁻¹)ᵀ Δv_λ(i), left in ws.u,
-// and Δv_i = Δv_λ(i) + S_i Δq̇_i.
+// Where the forward sweep also stores Δq̇ as it goes: lane w of DOF v < end to x[w + v·ld],
+// for the first `width` lanes (x = nullptr: nowhere).
+template <class T>
+struct LaneRows {
+  T* x = nullptr;
+  std::size_t ld = 0;
+  int end = 0, width = 0;
+};
+
+// Forward sweep over bodies 0 … last: Δq̇_i = D_i⁻¹ u_i − (U_i D_i⁻¹)ᵀ Δv_λ(i), left in ws.u
+// (and in `rows`), and Δv_i = Δv_λ(i) + S_i Δq̇_i.
 template <class T, int W>
-MINV_FLATTEN void abiForward(const Model& model, const Kinematics<T>& kin, const Articulated<T>& art,
-                AbiLanes<T, W>& ws, int last) {
+MINV_FLATTEN void abiForward(const Model& model, const Kinematics<T>& kin,
+                             const Articulated<T>& art, AbiLanes<T, W>& ws, int last,
+                             LaneRows<T> rows = {}) {
   typename AbiLanes<T, W>::Spatial dv;  // Δv of the current body; on entry, of body i − 1
   for (int i = 0; i <= last; ++i) {
     const int v = model.vIdx(i), k = model.nvOf(i), p = model.parent(i);
@@ -190,27 +218,40 @@ MINV_FLATTEN void abiForward(const Model& model, const Kinematics<T>& kin, const
       abiForwardBody<T, W, 1>(kin, art, ws, dv, i, v, k, p < 0);
     else
       abiForwardBody<T, W, 0>(kin, art, ws, dv, i, v, k, p < 0);
+    // Stored while the stores can overlap the next body's arithmetic.
+    if (rows.x)
+      for (int j = 0; j < k && v + j < rows.end; ++j) {
+        if (rows.width == W)
+          for (int w = 0; w < W; ++w) rows.x[w + (v + j) * rows.ld] = ws.u[v + j](w);
+        else
+          std::copy_n(ws.u[v + j].data(), rows.width, rows.x + (v + j) * rows.ld);
+      }
     // Kept in memory for a child that is not the next body.
     if (ws.gather[i]) ws.dv[i] = dv;
   }
 }
 
-// Columns c0 … c0+W−1 (those below nv) of M⁻¹ down to the diagonal: Δq̇ of lane w for the
-// rows of bodies 0 … b(last column), which include every row up to column c0 + w.
+// Columns c0 … c0+W−1 (those below nv) of M⁻¹: Δq̇ of lane w for the rows of bodies
+// 0 … b(last column), which include every row up to column c0 + w. By symmetry they give the
+// block's rows too, so each block writes its own strips of X and nothing is mirrored after:
+// the columns above the block's rows and the rows left of (and on) its diagonal tile.
 template <class T, int W, class Mark>
-MINV_FLATTEN void abiInverseBlock(const Model& model, const Kinematics<T>& kin, const Articulated<T>& art,
-                     AbiLanes<T, W>& ws, int c0, MatX<T>& X, Mark& mark) {
+MINV_FLATTEN void abiInverseBlock(const Model& model, const Kinematics<T>& kin,
+                                  const Articulated<T>& art, AbiLanes<T, W>& ws, int c0,
+                                  MatX<T>& X, Mark& mark) {
   const int nv = model.nv(), width = std::min(W, nv - c0);
   const int last = model.dofBody(c0 + width - 1);
   // The unit impulses e_{c0+w}, one per lane, up to the roots; then Δq̇ of bodies 0 … last.
-  abiBackward<T, W, true>(model, kin, art, ws, last, c0, width);
-  mark("impulse propagation");
-  abiForward<T, W>(model, kin, art, ws, last);
-  mark("velocity updates");
-  // Column c0 + w, rows 0 … c0 + w: whole 8-row tiles through a buffer (lanes to columns),
-  // then the diagonal tile.
+  // Rows c0 … c0+width−1 left of the diagonal tile, X(c0 + w, v) = Δq̇_v of lane w (one
+  // contiguous run of the lanes per column v), are stored by the forward sweep.
   const std::size_t ld = X.rows();
   T* x = X.data();
+  abiBackward<T, W, true>(model, kin, art, ws, last, c0, width);
+  mark("impulse propagation");
+  abiForward<T, W>(model, kin, art, ws, last, LaneRows<T>{x + c0, ld, c0, width});
+  mark("velocity updates");
+  // Columns c0 … above the diagonal tile: X(v, c0 + w), 8-row tiles through a buffer (lanes
+  // to columns), then the rows of a last partial tile.
   int v0 = 0;
   for (; v0 + 8 <= c0; v0 += 8) {
     T t[W][8];
@@ -220,46 +261,20 @@ MINV_FLATTEN void abiInverseBlock(const Model& model, const Kinematics<T>& kin, 
       for (int v = 0; v < 8; ++v) x[v0 + v + (c0 + w) * ld] = t[w][v];
   }
   for (int w = 0; w < width; ++w)
-    for (int v = v0; v <= c0 + w; ++v) x[v + (c0 + w) * ld] = ws.u[v](w);
+    for (int v = v0; v < c0; ++v) x[v + (c0 + w) * ld] = ws.u[v](w);
+  // The diagonal tile: its upper triangle, mirrored so that X is exactly symmetric.
+  for (int w = 0; w < width; ++w)
+    for (int v = c0; v <= c0 + w; ++v) x[v + (c0 + w) * ld] = x[c0 + w + v * ld] = ws.u[v](w);
 }
 
-// The lower triangle from the upper one, X(i, j) = X(j, i) for i > j, in the B×B tile of
-// rows i0 … and columns j0 … (whose pages stay in the TLB): b×b tiles, each read whole into a
-// buffer in L1 and written out.
-inline constexpr int kMirrorTile = 256;
-template <class T>
-MINV_FLATTEN void mirrorTile(MatX<T>& X, int i0, int j0) {
-  constexpr int b = 16;
-  const int n = static_cast<int>(X.rows());
-  const int iE = std::min(i0 + kMirrorTile, n), jE = std::min(j0 + kMirrorTile, n);
-  const std::size_t ld = X.rows();
-  T* x = X.data();
-  for (int jb = j0; jb < jE; jb += b)
-    for (int ib = std::max(i0, jb); ib < iE; ib += b) {
-      if (ib >= jb + b && ib + b <= iE && jb + b <= jE) {
-        // A whole tile below the diagonal: t = X(jb…, ib…), then X(ib…, jb…) = tᵀ.
-        T t[b][b];
-        for (int i = 0; i < b; ++i)
-          for (int j = 0; j < b; ++j) t[i][j] = x[jb + j + (ib + i) * ld];
-        for (int j = 0; j < b; ++j)
-          for (int i = 0; i < b; ++i) x[ib + i + (jb + j) * ld] = t[i][j];
-        continue;
-      }
-      // A tile on the diagonal or at the edge: entry by entry.
-      for (int j = jb; j < std::min(jb + b, jE); ++j)
-        for (int i = std::max(ib, j + 1); i < std::min(ib + b, iE); ++i) x[i + j * ld] = x[j + i * ld];
-    }
-}
-
-// Stages "impulse propagation" and "velocity updates" for all columns: Minv = M⁻¹. Blocks of
-// W columns (a last block of at most W/2 columns runs half as wide), then the mirror.
+// Stages "impulse propagation" and "velocity updates" for all columns: Minv = M⁻¹, in blocks
+// of W columns (a last block of at most W/2 columns runs half as wide).
 template <class T, class Mark = NoMark>
 void abiInverse(const Model& model, const Kinematics<T>& kin, const Articulated<T>& art,
                 AbiWorkspace<T>& ws, MatX<T>& Minv, Mark&& mark = {}) {
   constexpr int W = kAbiLanes<T>;
   const int nv = model.nv(), blocks = (nv + W - 1) / W;
   const bool halfLast = W > 1 && nv - (blocks - 1) * W <= W / 2;
-  const int tiles = (nv + kMirrorTile - 1) / kMirrorTile;
   auto block = [&](int b, int thread, auto& mk) {
     if (b == blocks - 1 && halfLast)
       abiInverseBlock<T, AbiWorkspace<T>::kHalf>(model, kin, art, ws.half[thread], b * W, Minv, mk);
@@ -268,21 +283,15 @@ void abiInverse(const Model& model, const Kinematics<T>& kin, const Articulated<
   };
   if (ws.threads() == 1 || !std::is_same_v<std::decay_t<Mark>, NoMark>) {
     for (int b = 0; b < blocks; ++b) block(b, 0, mark);
-    for (int tj = 0; tj < tiles; ++tj)
-      for (int ti = tj; ti < tiles; ++ti) mirrorTile(Minv, ti * kMirrorTile, tj * kMirrorTile);
     return;
   }
 #pragma omp parallel num_threads(ws.threads())
   {
     NoMark none;
-    // Blocks are independent; later ones cost more: the costliest first, handed out as
-    // threads come free.
+    // Blocks are independent and write disjoint parts of Minv; later ones cost more: the
+    // costliest first, handed out as threads come free.
 #pragma omp for schedule(dynamic, 1)
     for (int r = 0; r < blocks; ++r) block(blocks - 1 - r, omp_thread(), none);
-    // Then the lower triangle, tile by tile.
-#pragma omp for schedule(dynamic, 1)
-    for (int t = 0; t < tiles * tiles; ++t)
-      if (t % tiles >= t / tiles) mirrorTile(Minv, (t % tiles) * kMirrorTile, (t / tiles) * kMirrorTile);
   }
 }
 

@@ -80,9 +80,11 @@ struct Result {
   Eigen::MatrixXd X, Y, R, Y1;
 };
 
-bool run(const std::string& solver, const Problem& p, Result& out, std::string* why) {
+bool run(const std::string& solver, const Problem& p, Result& out, std::string* why,
+         int threads = 1) {
   auto s = makeSolver(solver);
   if (!s->supports(p.model, why)) return false;
+  s->setThreads(threads);
   s->prepare(p.model);
   s->configure(p.q);
   const int n = p.model.nv();
@@ -134,6 +136,21 @@ TEST_P(Conformance, AgreesWithEverySolver) {
     if (!run(other, p, theirs, &why)) continue;
     EXPECT_LE(rel(mine.X, theirs.X), p.tol) << solver << " vs " << other;
   }
+}
+
+// On two threads (where a solver uses them: abi's column blocks run in parallel and write
+// disjoint parts of M⁻¹) the results meet the same bounds.
+TEST_P(Conformance, TwoThreads) {
+  const auto& [solver, c] = GetParam();
+  const Problem& p = problem(c);
+  Result r;
+  std::string why;
+  if (!run(solver, p, r, &why, 2)) GTEST_SKIP() << solver << ": " << why;
+  const int n = p.model.nv();
+  EXPECT_LE(rel(p.M * r.X, Eigen::MatrixXd::Identity(n, n)), p.tol) << "kappa " << p.kappa;
+  EXPECT_LE(rel(r.X, r.X.transpose()), p.tol);
+  EXPECT_LE(rel(p.M * r.Y, r.R), p.tol);
+  EXPECT_TRUE(r.X.allFinite() && r.Y.allFinite());
 }
 
 std::string caseName(const ::testing::TestParamInfo<Conformance::ParamType>& info) {
