@@ -55,11 +55,33 @@ inline constexpr int kAbiLanes = 1;
 template <>
 inline constexpr int kAbiLanes<double> = 16;
 
+// A spatial vector per column: six rows of W lanes, each row a separate value so that the
+// compiler keeps rows in registers rather than one 6×W object in memory.
+template <class T, int W>
+struct LaneSpatial {
+  using Lane = Eigen::Array<T, 1, W>;
+  Lane r[6];
+  Lane& row(int i) { return r[i]; }
+  const Lane& row(int i) const { return r[i]; }
+  void setZero() {
+    for (Lane& x : r) x.setZero();
+  }
+  LaneSpatial& operator+=(const LaneSpatial& o) {
+    for (int i = 0; i < 6; ++i) r[i] += o.r[i];
+    return *this;
+  }
+  static LaneSpatial Zero() {
+    LaneSpatial z;
+    z.setZero();
+    return z;
+  }
+};
+
 // Scratch of one thread for a block of W columns.
 template <class T, int W>
 struct AbiLanes {
-  using Lane = Eigen::Array<T, 1, W>;                   // one value per column
-  using Spatial = Eigen::Array<T, 6, W, W == 1 ? Eigen::ColMajor : Eigen::RowMajor>;  // per column
+  using Lane = Eigen::Array<T, 1, W>;  // one value per column
+  using Spatial = LaneSpatial<T, W>;   // one spatial vector per column
   std::vector<Spatial> Y;   // Y_i handed to a parent that is not the previous body, per body
   std::vector<Spatial> dv;  // Δv_i read by a child that is not the next body, per body
   std::vector<Lane> u;      // u_i = r_i − S_iᵀ Y_i, then Δq̇, per DOF
@@ -67,12 +89,19 @@ struct AbiLanes {
   // pass from body to body in registers; only at such branch points do they go through memory.
   std::vector<char> gather;
   std::vector<char> held;  // held[i]: Y[i] holds a share left by a child (backward sweep)
+  // link[i]: body i has one DOF, its parent is i − 1 and its only child (if any) is i + 1: Y
+  // passes through it up the chain and Δv down it.
+  std::vector<char> link;
+  std::vector<Lane> e;     // e[w]: 1 in lane w, 0 elsewhere (the unit impulse of lane w)
 
   explicit AbiLanes(const Model& m)
       : Y(m.nb(), Spatial::Zero()), dv(m.nb(), Spatial::Zero()), u(m.nv(), Lane::Zero()),
-        gather(m.nb(), 0), held(m.nb(), 0) {
+        gather(m.nb(), 0), held(m.nb(), 0), link(m.nb(), 0), e(W, Lane::Zero()) {
+    for (int w = 0; w < W; ++w) e[w](w) = T(1);
     for (int j = 1; j < m.nb(); ++j)
       if (m.parent(j) >= 0 && m.parent(j) != j - 1) gather[m.parent(j)] = 1;
+    for (int j = 1; j < m.nb(); ++j)
+      link[j] = m.nvOf(j) == 1 && m.parent(j) == j - 1 && !gather[j];
   }
 };
 
@@ -101,15 +130,16 @@ inline void abiBackwardBody(const Kinematics<T>& kin, const Articulated<T>& art,
   if constexpr (K > 0) k = K;
   Lane u[K > 0 ? K : 6];
   for (int j = 0; j < k; ++j) {
-    // u = r − S_jᵀ Y
+    // u = r − S_jᵀ Y, as r + Σ (−S)·Y so that no subtraction waits at the end of the chain
     const auto S = kin.S.col(v + j);
-    const Lane sy = (S(0) * Y.row(0) + S(1) * Y.row(1) + S(2) * Y.row(2)) +
-                    (S(3) * Y.row(3) + S(4) * Y.row(4) + S(5) * Y.row(5));
+    const T s0 = -S(0), s1 = -S(1), s2 = -S(2), s3 = -S(3), s4 = -S(4), s5 = -S(5);
     if constexpr (Unit) {
-      u[j] = -sy;
-      if (static_cast<unsigned>(v + j - c0) < static_cast<unsigned>(width)) u[j](v + j - c0) += T(1);
+      u[j] = (s0 * Y.row(0) + s1 * Y.row(1) + s2 * Y.row(2)) +
+             (s3 * Y.row(3) + s4 * Y.row(4) + s5 * Y.row(5));
+      if (static_cast<unsigned>(v + j - c0) < static_cast<unsigned>(width)) u[j] += ws.e[v + j - c0];
     } else {
-      u[j] = ws.u[v + j] - sy;
+      u[j] = (ws.u[v + j] + s0 * Y.row(0) + s1 * Y.row(1) + s2 * Y.row(2)) +
+             (s3 * Y.row(3) + s4 * Y.row(4) + s5 * Y.row(5));
     }
     ws.u[v + j] = u[j];
   }
@@ -128,7 +158,7 @@ template <class T, int W, bool Unit>
 MINV_FLATTEN void abiBackward(const Model& model, const Kinematics<T>& kin,
                               const Articulated<T>& art, AbiLanes<T, W>& ws, int last, int c0 = 0,
                               int width = 0) {
-  typename AbiLanes<T, W>::Spatial Y;  // Y_i of the current body
+  auto Y = AbiLanes<T, W>::Spatial::Zero();  // Y_i of the current body
   bool carried = false;                // Y holds what child i + 1 handed up
   for (int i = last; i >= 0; --i) {
     const int v = model.vIdx(i), k = model.nvOf(i), p = model.parent(i);
@@ -156,6 +186,10 @@ MINV_FLATTEN void abiBackward(const Model& model, const Kinematics<T>& kin,
       ws.Y[p] += Y;
       ws.held[p] = 1;
     }
+    // Then along a run of links, in a loop as tight as the step itself.
+    if (carried)
+      for (; ws.link[i - 1]; --i)
+        abiBackwardBody<T, W, Unit, 1>(kin, art, ws, Y, model.vIdx(i - 1), 1, false, c0, width);
   }
 }
 
@@ -168,17 +202,19 @@ inline void abiForwardBody(const Kinematics<T>& kin, const Articulated<T>& art, 
   if constexpr (K > 0) k = K;
   Lane qd[K > 0 ? K : 6];
   for (int j = 0; j < k; ++j) {
-    // Δq̇_j, the 6-term dot product as two halves
+    // D⁻¹ u
     if constexpr (K == 1) {
       qd[j] = art.dinv(v) * ws.u[v];
     } else {
       qd[j] = art.Dinv[i](j, 0) * ws.u[v];
       for (int l = 1; l < k; ++l) qd[j] += art.Dinv[i](j, l) * ws.u[v + l];
     }
+    // − (U D⁻¹)ᵀ Δv_λ as D⁻¹u + Σ (−U D⁻¹)·Δv_λ in two halves, a shorter dependency chain
     if (!root) {
       const auto UD = art.UDinv.col(v + j);
-      qd[j] -= (UD(0) * dv.row(0) + UD(1) * dv.row(1) + UD(2) * dv.row(2)) +
-               (UD(3) * dv.row(3) + UD(4) * dv.row(4) + UD(5) * dv.row(5));
+      const T a0 = -UD(0), a1 = -UD(1), a2 = -UD(2), a3 = -UD(3), a4 = -UD(4), a5 = -UD(5);
+      qd[j] = (qd[j] + a0 * dv.row(0) + a1 * dv.row(1) + a2 * dv.row(2)) +
+              (a3 * dv.row(3) + a4 * dv.row(4) + a5 * dv.row(5));
     }
   }
   for (int j = 0; j < k; ++j) ws.u[v + j] = qd[j];
@@ -193,13 +229,25 @@ inline void abiForwardBody(const Kinematics<T>& kin, const Articulated<T>& art, 
   }
 }
 
-// Where the forward sweep also stores Δq̇ as it goes: lane w of DOF v < end to x[w + v·ld],
-// for the first `width` lanes (x = nullptr: nowhere).
+// Where the forward sweep also stores Δq̇ as it goes (the stores then overlap the next body's
+// arithmetic): lane w of DOF v < end to x[w + v·ld], for the first `width` lanes (x = nullptr:
+// nowhere).
 template <class T>
 struct LaneRows {
   T* x = nullptr;
   std::size_t ld = 0;
   int end = 0, width = 0;
+
+  template <class Lanes>
+  void store(const Lanes& u, int v, int k) const {
+    if (!x) return;
+    for (int j = 0; j < k && v + j < end; ++j) {
+      if (width == static_cast<int>(u[v + j].size()))
+        for (int w = 0; w < u[v + j].size(); ++w) x[w + (v + j) * ld] = u[v + j](w);
+      else
+        std::copy_n(u[v + j].data(), width, x + (v + j) * ld);
+    }
+  }
 };
 
 // Forward sweep over bodies 0 … last: Δq̇_i = D_i⁻¹ u_i − (U_i D_i⁻¹)ᵀ Δv_λ(i), left in ws.u
@@ -208,7 +256,7 @@ template <class T, int W>
 MINV_FLATTEN void abiForward(const Model& model, const Kinematics<T>& kin,
                              const Articulated<T>& art, AbiLanes<T, W>& ws, int last,
                              LaneRows<T> rows = {}) {
-  typename AbiLanes<T, W>::Spatial dv;  // Δv of the current body; on entry, of body i − 1
+  auto dv = AbiLanes<T, W>::Spatial::Zero();  // Δv of the current body; of body i − 1 on entry
   for (int i = 0; i <= last; ++i) {
     const int v = model.vIdx(i), k = model.nvOf(i), p = model.parent(i);
     // Δv_λ(i): carried from body i − 1 along a chain, else read from memory.
@@ -218,16 +266,15 @@ MINV_FLATTEN void abiForward(const Model& model, const Kinematics<T>& kin,
       abiForwardBody<T, W, 1>(kin, art, ws, dv, i, v, k, p < 0);
     else
       abiForwardBody<T, W, 0>(kin, art, ws, dv, i, v, k, p < 0);
-    // Stored while the stores can overlap the next body's arithmetic.
-    if (rows.x)
-      for (int j = 0; j < k && v + j < rows.end; ++j) {
-        if (rows.width == W)
-          for (int w = 0; w < W; ++w) rows.x[w + (v + j) * rows.ld] = ws.u[v + j](w);
-        else
-          std::copy_n(ws.u[v + j].data(), rows.width, rows.x + (v + j) * rows.ld);
-      }
+    rows.store(ws.u, v, k);
     // Kept in memory for a child that is not the next body.
     if (ws.gather[i]) ws.dv[i] = dv;
+    // Then down a run of links, in a loop as tight as the step itself.
+    for (; i + 1 <= last && ws.link[i + 1]; ++i) {
+      const int vn = model.vIdx(i + 1);
+      abiForwardBody<T, W, 1>(kin, art, ws, dv, i + 1, vn, 1, false);
+      rows.store(ws.u, vn, 1);
+    }
   }
 }
 
