@@ -34,6 +34,8 @@
 #include "solvers/abi.hpp"
 #include "solvers/solver.hpp"
 
+extern "C" void openblas_set_num_threads(int);
+
 namespace minv {
 namespace {
 
@@ -185,6 +187,7 @@ void registerAll(bool full) {
     if (n >= 64 && (full || n <= 2048))
       benchmark::RegisterBenchmark(("dgemm/" + std::to_string(n)).c_str(), [n](benchmark::State& st) {
         Eigen::MatrixXd A = Eigen::MatrixXd::Random(n, n), B = A, C(n, n);
+        openblas_set_num_threads(1);  // one core, whatever ran before
         for (auto _ : st) {
           cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, n, n, n, 1.0, A.data(), n,
                       B.data(), n, 0.0, C.data(), n);
@@ -352,6 +355,7 @@ int main(int argc, char** argv) {
     }
   }
   silenceHdf5Errors();
+  openblas_set_num_threads(1);  // single thread unless a benchmark says otherwise
   // A filtered or listing run prints its table but writes no result file unless asked to.
   bool partial = false;
   for (char* a : rest)
