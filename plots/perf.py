@@ -74,6 +74,21 @@ def memory_section():
             "the scratch is O(n·W)."]
 
 
+def machine_section(f):
+    """The machine and build the figures above come from, from the result file's provenance."""
+    a = f.attrs
+
+    def get(k):
+        v = a.get(k, "?")
+        return v.decode() if isinstance(v, bytes) else v
+    return ["", "## The machine", "",
+            f"- CPU: {get('cpu_model')}, {get('cpu_cores')} cores (host {get('hostname')})",
+            f"- compiler: {get('compiler')}, flags `{get('build_flags')}`",
+            f"- BLAS: {get('blas_library')}, {get('blas_threads')} thread(s); OpenMP up to "
+            f"{get('omp_max_threads')} threads (abi's two-thread runs only)",
+            f"- run: git {get('git_sha')}, {get('date_utc')}, mode {get('mode')}"]
+
+
 def main():
     with h5py.File(result_path("perf.h5"), "r") as f:
         lines = ["# Performance of `abi` (issue 7)", "",
@@ -116,6 +131,7 @@ def main():
         save(fig, "perf_ratios")
         lines.append("![ratios](figures/perf_ratios.png)")
         lines += parts_section(f)
+        lines += machine_section(f)
     lines += memory_section()
     with open(os.path.join(PAPER, "PERFORMANCE.md"), "w") as out:
         out.write("\n".join(lines) + "\n")
