@@ -97,7 +97,8 @@ void articulatedInertias(const Model& model, const Kinematics<T>& kin, Articulat
     // IA_λ(i) += IA_i − U_i D_i⁻¹ U_iᵀ.
     if (p >= 0) {
       art.IA[p] += art.IA[i];
-      art.IA[p].noalias() -= art.UDinv.middleCols(v, k).lazyProduct(art.U.middleCols(v, k).transpose());
+      art.IA[p].noalias() -=
+          art.UDinv.middleCols(v, k).lazyProduct(art.U.middleCols(v, k).transpose());
     }
   }
 }

@@ -184,8 +184,9 @@ void registerAll(bool full) {
       }
     })->Unit(benchmark::kNanosecond)->UseRealTime();
     // OpenBLAS dgemm, n×n×n, one thread (to n = 2048 in quick mode: 3.4 s a call at 4096).
-    if (n >= 64 && (full || n <= 2048))
-      benchmark::RegisterBenchmark(("dgemm/" + std::to_string(n)).c_str(), [n](benchmark::State& st) {
+    if (n >= 64 && (full || n <= 2048)) {
+      const std::string name = "dgemm/" + std::to_string(n);
+      benchmark::RegisterBenchmark(name.c_str(), [n](benchmark::State& st) {
         Eigen::MatrixXd A = Eigen::MatrixXd::Random(n, n), B = A, C(n, n);
         openblas_set_num_threads(1);  // one core, whatever ran before
         for (auto _ : st) {
@@ -194,6 +195,7 @@ void registerAll(bool full) {
           benchmark::DoNotOptimize(C.data());
         }
       })->Unit(benchmark::kNanosecond)->UseRealTime();
+    }
   }
 }
 
@@ -254,7 +256,8 @@ void report(bool full, const std::string& out) {
       const double s8 = med("solve/" + T + "/abi/" + N + "/8");
       const double l8 = med("solve/" + T + "/lapack/" + N + "/8");
       const double row[10] = {abi * 1e6, ratio("lapack"), ratio("eigen"), ratio("ltdl"),
-                              ratio("mujoco"), gflops, dgemm_rate > 0 ? 100 * gflops / dgemm_rate : 0,
+                              ratio("mujoco"), gflops,
+                              dgemm_rate > 0 ? 100 * gflops / dgemm_rate : 0,
                               store > 0 ? abi / store : 0, thr2 > 0 ? abi / thr2 : 0,
                               s8 > 0 ? l8 / s8 : 0};
       std::printf("%6d %10.1f %8.2f %8.2f %8.2f %8.2f %9.2f %7.1f %8.2f %8.2f %9.1f\n", n, row[0],

@@ -92,7 +92,7 @@ struct AbiLanes {
   // link[i]: body i has one DOF, its parent is i − 1 and its only child (if any) is i + 1: Y
   // passes through it up the chain and Δv down it.
   std::vector<char> link;
-  std::vector<Lane> e;     // e[w]: 1 in lane w, 0 elsewhere (the unit impulse of lane w)
+  std::vector<Lane> e;  // e[w]: 1 in lane w, 0 elsewhere (the unit impulse of lane w)
 
   explicit AbiLanes(const Model& m)
       : Y(m.nb(), Spatial::Zero()), dv(m.nb(), Spatial::Zero()), u(m.nv(), Lane::Zero()),
@@ -136,7 +136,8 @@ inline void abiBackwardBody(const Kinematics<T>& kin, const Articulated<T>& art,
     if constexpr (Unit) {
       u[j] = (s0 * Y.row(0) + s1 * Y.row(1) + s2 * Y.row(2)) +
              (s3 * Y.row(3) + s4 * Y.row(4) + s5 * Y.row(5));
-      if (static_cast<unsigned>(v + j - c0) < static_cast<unsigned>(width)) u[j] += ws.e[v + j - c0];
+      if (static_cast<unsigned>(v + j - c0) < static_cast<unsigned>(width))
+        u[j] += ws.e[v + j - c0];
     } else {
       u[j] = (ws.u[v + j] + s0 * Y.row(0) + s1 * Y.row(1) + s2 * Y.row(2)) +
              (s3 * Y.row(3) + s4 * Y.row(4) + s5 * Y.row(5));
@@ -149,7 +150,8 @@ inline void abiBackwardBody(const Kinematics<T>& kin, const Articulated<T>& art,
     for (int r = 0; r < 6; ++r) Y.row(r) += art.UDinv(r, v + j) * u[j];
 }
 
-// Backward sweep from body `last` to the roots: u_i = r_i − S_iᵀ Y_i, Y_λ(i) += Y_i + U_i D_i⁻¹ u_i.
+// Backward sweep from body `last` to the roots:
+//   u_i = r_i − S_iᵀ Y_i,  Y_λ(i) += Y_i + U_i D_i⁻¹ u_i.
 // r is either the unit impulses e_{c0+w} (Unit; ws.u is then written, not read) or held in
 // ws.u on entry. With unit impulses only their bodies' ancestors carry a Y (§5.2): any other
 // body has u = 0 and is skipped. ws.Y is zero on entry and again on exit (each entry is
@@ -159,7 +161,7 @@ MINV_FLATTEN void abiBackward(const Model& model, const Kinematics<T>& kin,
                               const Articulated<T>& art, AbiLanes<T, W>& ws, int last, int c0 = 0,
                               int width = 0) {
   auto Y = AbiLanes<T, W>::Spatial::Zero();  // Y_i of the current body
-  bool carried = false;                // Y holds what child i + 1 handed up
+  bool carried = false;                      // Y holds what child i + 1 handed up
   for (int i = last; i >= 0; --i) {
     const int v = model.vIdx(i), k = model.nvOf(i), p = model.parent(i);
     const bool gathered = ws.held[i];  // other children left a share in memory
