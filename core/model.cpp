@@ -3,6 +3,7 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <initializer_list>
 
 namespace minv {
 
@@ -141,24 +142,33 @@ Model Model::create(std::vector<int> parent, std::vector<Joint> joints, std::vec
 
 int Model::maxDepth() const { return *std::max_element(depth_.begin(), depth_.end()); }
 
-std::vector<std::string> Model::dofNames() const {
-  static const char* sph[] = {"wx", "wy", "wz"};
-  static const char* flo[] = {"wx", "wy", "wz", "vx", "vy", "vz"};
+namespace {
+// One name per coordinate: a 1-DOF joint's own name, else "<joint>_<suffix>" for each suffix of
+// a spherical or a floating joint.
+std::vector<std::string> coordinateNames(const std::vector<Joint>& joints,
+                                         std::initializer_list<const char*> spherical,
+                                         std::initializer_list<const char*> floating) {
   std::vector<std::string> names;
-  for (int i = 0; i < nb(); ++i) {
-    const Joint& j = joints_[i];
+  for (std::size_t i = 0; i < joints.size(); ++i) {
+    const Joint& j = joints[i];
     const std::string base = j.name.empty() ? "joint" + std::to_string(i) : j.name;
-    switch (j.type) {
-      case JointType::Spherical:
-        for (const char* s : sph) names.push_back(base + "_" + s);
-        break;
-      case JointType::Floating:
-        for (const char* s : flo) names.push_back(base + "_" + s);
-        break;
-      default: names.push_back(base);
+    if (j.type == JointType::Spherical || j.type == JointType::Floating) {
+      for (const char* s : j.type == JointType::Spherical ? spherical : floating)
+        names.push_back(base + "_" + s);
+    } else {
+      names.push_back(base);
     }
   }
   return names;
+}
+}  // namespace
+
+std::vector<std::string> Model::dofNames() const {
+  return coordinateNames(joints_, {"wx", "wy", "wz"}, {"wx", "wy", "wz", "vx", "vy", "vz"});
+}
+
+std::vector<std::string> Model::qNames() const {
+  return coordinateNames(joints_, {"qw", "qx", "qy", "qz"}, {"x", "y", "z", "qw", "qx", "qy", "qz"});
 }
 
 Eigen::VectorXd Model::neutral() const {

@@ -73,6 +73,9 @@ class Model {
   const std::vector<int>& dofParent() const { return dof_parent_; }
   int dofBody(int k) const { return dof_body_[k]; }
   std::vector<std::string> dofNames() const;
+  // Names of the q entries: a 1-DOF joint's name; "<joint>_qw" … "_qz" for a spherical joint's
+  // quaternion; "<joint>_x", "_y", "_z", "_qw" … "_qz" for a floating joint.
+  std::vector<std::string> qNames() const;
   // Depth of each body (a root has depth 1) and the tree's maximum depth.
   int depth(int i) const { return depth_[i]; }
   int maxDepth() const;

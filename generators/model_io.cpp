@@ -517,4 +517,86 @@ Model withFloatingBase(const Model& fixed) {
   return Model::create(parents, std::move(joints), std::move(bodies));
 }
 
+Eigen::VectorXd readConfiguration(const Model& model, std::istream& in,
+                                  const std::string& source) {
+  const std::vector<std::string> names = model.qNames();
+  Eigen::VectorXd q = model.neutral();
+  std::vector<int> line_of(model.nq(), 0);  // where each named entry was set
+  int count = 0, line_no = 0;
+  enum { Unknown, Plain, Named } form = Unknown;
+  // A finite double from the whole token, else ModelError naming the place.
+  auto number = [&](const std::string& token, const std::string& what) {
+    std::size_t used = 0;
+    double x = 0;
+    try {
+      x = std::stod(token, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used != token.size() || !std::isfinite(x))
+      throw ModelError(source + ":" + std::to_string(line_no) + ": " + what + " '" + token +
+                       "' is not a finite number");
+    return x;
+  };
+  std::string line;
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (const auto hash = line.find('#'); hash != std::string::npos) line.erase(hash);
+    std::istringstream tokens(line);
+    std::string first;
+    if (!(tokens >> first)) continue;
+    if (form == Unknown) {
+      const char c = first[0];
+      form = (std::isdigit(static_cast<unsigned char>(c)) || c == '-' || c == '+' || c == '.')
+                 ? Plain
+                 : Named;
+    }
+    if (form == Plain) {
+      // Every token of the line is the next entry of q.
+      for (std::string t = first;; ) {
+        if (count >= model.nq())
+          throw ModelError(source + ":" + std::to_string(line_no) + ": more than nq = " +
+                           std::to_string(model.nq()) + " numbers");
+        q(count) = number(t, "entry q[" + std::to_string(count) + "]");
+        ++count;
+        if (!(tokens >> t)) break;
+      }
+      continue;
+    }
+    // Named: "name value" and nothing else on the line.
+    std::string value, extra;
+    if (!(tokens >> value) || (tokens >> extra))
+      throw ModelError(source + ":" + std::to_string(line_no) +
+                       ": expected 'name value', got '" + line + "'");
+    const auto it = std::find(names.begin(), names.end(), first);
+    if (it == names.end())
+      throw ModelError(source + ":" + std::to_string(line_no) + ": unknown q name '" + first +
+                       "' (names are the joints' names, with _qw/_qx/_qy/_qz for a spherical "
+                       "joint and _x/_y/_z/_qw/_qx/_qy/_qz for a floating base)");
+    const int k = static_cast<int>(it - names.begin());
+    if (line_of[k])
+      throw ModelError(source + ":" + std::to_string(line_no) + ": '" + first +
+                       "' was already given on line " + std::to_string(line_of[k]));
+    line_of[k] = line_no;
+    q(k) = number(value, "value of '" + first + "'");
+    ++count;
+  }
+  if (form == Unknown) throw ModelError(source + ": no configuration in the file");
+  if (form == Plain && count != model.nq())
+    throw ModelError(source + ": " + std::to_string(count) + " numbers, the model needs nq = " +
+                     std::to_string(model.nq()));
+  try {
+    model.checkConfiguration(q);
+  } catch (const ModelError& e) {
+    throw ModelError(source + ": " + e.what());
+  }
+  return q;
+}
+
+Eigen::VectorXd loadConfiguration(const Model& model, const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw ModelError("cannot open configuration file '" + path + "'");
+  return readConfiguration(model, in, path);
+}
+
 }  // namespace minv

@@ -79,6 +79,19 @@ Model loadModel(const std::string& path, bool floating_base);
 // By extension; the model and name are written to path + ".tmp", which is then renamed.
 void saveModel(const Model& model, const std::string& path);
 
+// A configuration from a text file, in one of two forms (# starts a comment; blank lines are
+// ignored):
+//   plain:  exactly nq numbers separated by white space or newlines, in the model's q order;
+//   named:  lines "name value" with the names of Model::qNames() (a 1-DOF joint's name;
+//           "<joint>_qw" … for a quaternion, "<joint>_x" … for a floating base); entries not
+//           named keep their neutral value (zero angle, identity quaternion).
+// The form is taken from the first entry (a number or a name). Quaternions are normalised by
+// the kinematics, as everywhere. ModelError, naming the file and line, for: a wrong count, an
+// unknown or repeated name, a value that is not a finite number, a zero quaternion.
+Eigen::VectorXd readConfiguration(const Model& model, std::istream& in,
+                                  const std::string& source_name);
+Eigen::VectorXd loadConfiguration(const Model& model, const std::string& path);
+
 // The same tree with its root body set free: body 0's joint becomes a floating joint "base"
 // with identity placement (so nv grows by 5 for a revolute root); bodies and numbering are
 // unchanged. A model that is already floating is returned as it is; ModelError if the model

@@ -27,11 +27,11 @@ void AbiSolver::configure(const Eigen::VectorXd& q) {
   articulatedInertias<double>(*model_, *kin_, *art_);
 }
 
-void AbiSolver::inverse(Eigen::MatrixXd& Minv) {
+void AbiSolver::inverse(MatrixOut Minv) {
   abiInverse<double>(*model_, *kin_, *art_, *ws_, Minv);
 }
 
-void AbiSolver::solve(const Eigen::MatrixXd& R, Eigen::MatrixXd& X) {
+void AbiSolver::solve(MatrixIn R, MatrixOut X) {
   abiSolve<double>(*model_, *kin_, *art_, *ws_, R, X);
 }
 

@@ -284,16 +284,16 @@ MINV_FLATTEN void abiForward(const Model& model, const Kinematics<T>& kin,
 // 0 … b(last column), which include every row up to column c0 + w. By symmetry they give the
 // block's rows too, so each block writes its own strips of X and nothing is mirrored after:
 // the columns above the block's rows and the rows left of (and on) its diagonal tile.
-template <class T, int W, class Mark>
+template <class T, int W, class Out, class Mark>
 MINV_FLATTEN void abiInverseBlock(const Model& model, const Kinematics<T>& kin,
                                   const Articulated<T>& art, AbiLanes<T, W>& ws, int c0,
-                                  MatX<T>& X, Mark& mark) {
+                                  Out& X, Mark& mark) {
   const int nv = model.nv(), width = std::min(W, nv - c0);
   const int last = model.dofBody(c0 + width - 1);
   // The unit impulses e_{c0+w}, one per lane, up to the roots; then Δq̇ of bodies 0 … last.
   // Rows c0 … c0+width−1 left of the diagonal tile, X(c0 + w, v) = Δq̇_v of lane w (one
   // contiguous run of the lanes per column v), are stored by the forward sweep.
-  const std::size_t ld = X.rows();
+  const std::size_t ld = X.outerStride();
   T* x = X.data();
   abiBackward<T, W, true>(model, kin, art, ws, last, c0, width);
   mark("impulse propagation");
@@ -318,9 +318,9 @@ MINV_FLATTEN void abiInverseBlock(const Model& model, const Kinematics<T>& kin,
 
 // Stages "impulse propagation" and "velocity updates" for all columns: Minv = M⁻¹, in blocks
 // of W columns (a last block of at most W/2 columns runs half as wide).
-template <class T, class Mark = NoMark>
+template <class T, class Out, class Mark = NoMark>
 void abiInverse(const Model& model, const Kinematics<T>& kin, const Articulated<T>& art,
-                AbiWorkspace<T>& ws, MatX<T>& Minv, Mark&& mark = {}) {
+                AbiWorkspace<T>& ws, Out& Minv, Mark&& mark = {}) {
   constexpr int W = kAbiLanes<T>;
   const int nv = model.nv(), blocks = (nv + W - 1) / W;
   const bool halfLast = W > 1 && nv - (blocks - 1) * W <= W / 2;
@@ -345,10 +345,10 @@ void abiInverse(const Model& model, const Kinematics<T>& kin, const Articulated<
 }
 
 // Columns c0 … c0+W−1 of X = M⁻¹R: the full backward sweep, then the full forward sweep.
-template <class T, int W, class Mark>
+template <class T, int W, class In, class Out, class Mark>
 MINV_FLATTEN void abiSolveBlock(const Model& model, const Kinematics<T>& kin,
-                                const Articulated<T>& art, AbiLanes<T, W>& ws, const MatX<T>& R,
-                                int c0, MatX<T>& X, Mark& mark) {
+                                const Articulated<T>& art, AbiLanes<T, W>& ws, const In& R,
+                                int c0, Out& X, Mark& mark) {
   const int nb = model.nb(), nv = model.nv();
   const int width = std::min<int>(W, static_cast<int>(R.cols()) - c0);
   // r: the right-hand sides, one per lane (unused lanes zero); Y is zero between blocks.
@@ -367,9 +367,9 @@ MINV_FLATTEN void abiSolveBlock(const Model& model, const Kinematics<T>& kin,
 
 // X = M⁻¹R, W columns at a time; a block of at most W/2 columns runs half as wide, and a
 // single column one lane wide.
-template <class T, class Mark = NoMark>
+template <class T, class In, class Out, class Mark = NoMark>
 void abiSolve(const Model& model, const Kinematics<T>& kin, const Articulated<T>& art,
-              AbiWorkspace<T>& ws, const MatX<T>& R, MatX<T>& X, Mark&& mark = {}) {
+              AbiWorkspace<T>& ws, const In& R, Out& X, Mark&& mark = {}) {
   constexpr int W = kAbiLanes<T>;
   const int m = static_cast<int>(R.cols()), blocks = (m + W - 1) / W;
   auto block = [&](int b, int thread, auto& mk) {
@@ -425,8 +425,8 @@ class AbiSolver final : public Solver {
   int threads() const override { return threads_; }
   void prepare(const Model& model) override;
   void configure(const Eigen::VectorXd& q) override;
-  void inverse(Eigen::MatrixXd& Minv) override;
-  void solve(const Eigen::MatrixXd& R, Eigen::MatrixXd& X) override;
+  void inverse(MatrixOut Minv) override;
+  void solve(MatrixIn R, MatrixOut X) override;
 
  private:
   const Model* model_ = nullptr;

@@ -9,11 +9,11 @@ namespace minv {
 
 class EigenSolver final : public CrbaSolver {
  public:
-  void inverse(Eigen::MatrixXd& Minv) override {
+  void inverse(MatrixOut Minv) override {
     Minv.setIdentity();
     llt_.solveInPlace(Minv);
   }
-  void solve(const Eigen::MatrixXd& R, Eigen::MatrixXd& X) override {
+  void solve(MatrixIn R, MatrixOut X) override {
     X = R;
     llt_.solveInPlace(X);
   }

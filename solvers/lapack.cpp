@@ -51,19 +51,21 @@ void LapackSolver::factor() {
   check(LAPACKE_dpotrf(LAPACK_COL_MAJOR, 'L', n, M_.data(), n), "dpotrf");
 }
 
-void LapackSolver::inverse(Eigen::MatrixXd& Minv) {
+void LapackSolver::inverse(MatrixOut Minv) {
   // M⁻¹ = L⁻ᵀ L⁻¹ in the lower triangle, then mirrored.
   Minv = M_;
   const lapack_int n = static_cast<lapack_int>(Minv.rows());
-  check(LAPACKE_dpotri(LAPACK_COL_MAJOR, 'L', n, Minv.data(), n), "dpotri");
+  const lapack_int ld = static_cast<lapack_int>(Minv.outerStride());
+  check(LAPACKE_dpotri(LAPACK_COL_MAJOR, 'L', n, Minv.data(), ld), "dpotri");
   Minv.triangularView<Eigen::StrictlyUpper>() = Minv.transpose();
 }
 
-void LapackSolver::solve(const Eigen::MatrixXd& R, Eigen::MatrixXd& X) {
+void LapackSolver::solve(MatrixIn R, MatrixOut X) {
   // X = L⁻ᵀ L⁻¹ R.
   X = R;
   const lapack_int n = static_cast<lapack_int>(X.rows()), m = static_cast<lapack_int>(X.cols());
-  check(LAPACKE_dpotrs(LAPACK_COL_MAJOR, 'L', n, m, M_.data(), n, X.data(), n), "dpotrs");
+  const lapack_int ld = static_cast<lapack_int>(X.outerStride());
+  check(LAPACKE_dpotrs(LAPACK_COL_MAJOR, 'L', n, m, M_.data(), n, X.data(), ld), "dpotrs");
 }
 
 }  // namespace minv

@@ -17,8 +17,8 @@ class LapackSolver final : public CrbaSolver {
   // OpenBLAS's thread count is process-wide: this sets it for every LAPACK call.
   void setThreads(int n) override;
   int threads() const override { return threads_; }
-  void inverse(Eigen::MatrixXd& Minv) override;
-  void solve(const Eigen::MatrixXd& R, Eigen::MatrixXd& X) override;
+  void inverse(MatrixOut Minv) override;
+  void solve(MatrixIn R, MatrixOut X) override;
 
  private:
   void allocate(const Model&) override {}

@@ -46,8 +46,8 @@ void ltdlSolve(const std::vector<int>& lambda, const MatX<T>& H, Col&& x) {
 
 // M⁻¹ column by column: L⁻ᵀ e_k is non-zero only on k's ancestors, so the first two steps
 // walk that path alone; L⁻¹ then fills the column. Lower half mirrored.
-template <class T>
-void ltdlInverse(const std::vector<int>& lambda, const MatX<T>& H, MatX<T>& Minv) {
+template <class T, class Out>
+void ltdlInverse(const std::vector<int>& lambda, const MatX<T>& H, Out&& Minv) {
   const int n = static_cast<int>(H.rows());
   Minv.setZero();
   for (int k = 0; k < n; ++k) {
@@ -75,10 +75,10 @@ class LtdlSolver final : public CrbaSolver {
         [&](const MatX<Counted>& H, auto&& x) { ltdlSolve<Counted>(lambda, H, x); });
   }
 
-  void inverse(Eigen::MatrixXd& Minv) override {
+  void inverse(MatrixOut Minv) override {
     ltdlInverse<double>(model_->dofParent(), M_, Minv);
   }
-  void solve(const Eigen::MatrixXd& R, Eigen::MatrixXd& X) override {
+  void solve(MatrixIn R, MatrixOut X) override {
     X = R;
     for (int c = 0; c < X.cols(); ++c) ltdlSolve<double>(model_->dofParent(), M_, X.col(c));
   }

@@ -48,8 +48,8 @@ void ltlSolve(const std::vector<int>& lambda, const MatX<T>& H, Col&& x) {
 }
 
 // M⁻¹ column by column: L⁻ᵀ e_k lives on k's ancestors only; L⁻¹ then fills the column.
-template <class T>
-void ltlInverse(const std::vector<int>& lambda, const MatX<T>& H, MatX<T>& Minv) {
+template <class T, class Out>
+void ltlInverse(const std::vector<int>& lambda, const MatX<T>& H, Out&& Minv) {
   const int n = static_cast<int>(H.rows());
   Minv.setZero();
   for (int k = 0; k < n; ++k) {
@@ -79,8 +79,8 @@ class LtlSolver final : public CrbaSolver {
         [&](const MatX<Counted>& H, auto&& x) { ltlSolve<Counted>(lambda, H, x); });
   }
 
-  void inverse(Eigen::MatrixXd& Minv) override { ltlInverse<double>(model_->dofParent(), M_, Minv); }
-  void solve(const Eigen::MatrixXd& R, Eigen::MatrixXd& X) override {
+  void inverse(MatrixOut Minv) override { ltlInverse<double>(model_->dofParent(), M_, Minv); }
+  void solve(MatrixIn R, MatrixOut X) override {
     X = R;
     for (int c = 0; c < X.cols(); ++c) ltlSolve<double>(model_->dofParent(), M_, X.col(c));
   }

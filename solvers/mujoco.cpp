@@ -52,6 +52,15 @@ struct MujocoSolver::Impl {
     for (int k = 0; k < static_cast<int>(perm.size()); ++k) y(perm[k]) = x(k);
     if (free_dof >= 0) y.template segment<3>(free_dof) = R * x.template segment<3>(3);
   }
+  // X ← M_mj⁻¹ X in place: all columns in one call when they are contiguous, else one by one.
+  void solveColumns(MatrixOut X) {
+    const int nv = static_cast<int>(X.rows()), cols = static_cast<int>(X.cols());
+    if (X.outerStride() == nv) {
+      mj_solveM(m.get(), d.get(), X.data(), X.data(), cols);
+      return;
+    }
+    for (int c = 0; c < cols; ++c) mj_solveM(m.get(), d.get(), &X(0, c), &X(0, c), 1);
+  }
   // z (MuJoCo's velocities) → T⁻¹ z (ours), in place, for one column.
   template <class Col>
   void velocitiesToOurs(const std::vector<int>& perm, Col&& z) {
@@ -175,22 +184,22 @@ void MujocoSolver::configure(const Eigen::VectorXd& q) {
   }
 }
 
-void MujocoSolver::inverse(Eigen::MatrixXd& Minv) {
+void MujocoSolver::inverse(MatrixOut Minv) {
   Impl& s = *impl_;
   const int nv = s.model->nv();
   // Minv = T⁻¹ M_mj⁻¹ T⁻ᵀ: T⁻ᵀ's columns, solved in place, then T⁻¹ on every column.
   Minv.setZero();
   for (int k = 0; k < nv; ++k) Minv(perm_[k], k) = 1;
   if (s.free_dof >= 0) Minv.block<3, 3>(s.free_dof, 3) = s.R;
-  mj_solveM(s.m.get(), s.d.get(), Minv.data(), Minv.data(), nv);
+  s.solveColumns(Minv);
   for (int c = 0; c < nv; ++c) s.velocitiesToOurs(perm_, Minv.col(c));
 }
 
-void MujocoSolver::solve(const Eigen::MatrixXd& R, Eigen::MatrixXd& X) {
+void MujocoSolver::solve(MatrixIn R, MatrixOut X) {
   Impl& s = *impl_;
   const int cols = static_cast<int>(R.cols());
   for (int c = 0; c < cols; ++c) s.forcesToMj(perm_, R.col(c), X.col(c));
-  mj_solveM(s.m.get(), s.d.get(), X.data(), X.data(), cols);
+  s.solveColumns(X);
   for (int c = 0; c < cols; ++c) s.velocitiesToOurs(perm_, X.col(c));
 }
 

@@ -41,8 +41,8 @@ class MujocoSolver final : public Solver {
   bool supports(const Model& model, std::string* why) const override;
   void prepare(const Model& model) override;
   void configure(const Eigen::VectorXd& q) override;
-  void inverse(Eigen::MatrixXd& Minv) override;
-  void solve(const Eigen::MatrixXd& R, Eigen::MatrixXd& X) override;
+  void inverse(MatrixOut Minv) override;
+  void solve(MatrixIn R, MatrixOut X) override;
 
   // MuJoCo's M at the last configuration (mj_fullM), in our coordinates: Tᵀ M_mj T.
   // For tests; allocates.

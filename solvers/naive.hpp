@@ -48,8 +48,8 @@ void naiveCholeskySolve(const MatX<T>& L, Col&& x, int first = 0) {
 }
 
 // M⁻¹ column by column from e_k (forward substitution starts at row k), lower half mirrored.
-template <class T>
-void naiveCholeskyInverse(const MatX<T>& L, MatX<T>& Minv) {
+template <class T, class Out>
+void naiveCholeskyInverse(const MatX<T>& L, Out&& Minv) {
   Minv.setIdentity();
   for (int k = 0; k < L.rows(); ++k) naiveCholeskySolve<T>(L, Minv.col(k), k);
   Minv.template triangularView<Eigen::StrictlyUpper>() = Minv.transpose();
@@ -64,8 +64,8 @@ class NaiveSolver final : public CrbaSolver {
         [](const MatX<Counted>& H, auto&& x) { naiveCholeskySolve<Counted>(H, x); });
   }
 
-  void inverse(Eigen::MatrixXd& Minv) override { naiveCholeskyInverse<double>(M_, Minv); }
-  void solve(const Eigen::MatrixXd& R, Eigen::MatrixXd& X) override {
+  void inverse(MatrixOut Minv) override { naiveCholeskyInverse<double>(M_, Minv); }
+  void solve(MatrixIn R, MatrixOut X) override {
     X = R;
     for (int c = 0; c < X.cols(); ++c) naiveCholeskySolve<double>(M_, X.col(c));
   }

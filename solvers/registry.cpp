@@ -1,8 +1,12 @@
-// The one registry: a solver is one adapter class plus one line here.
+// The one registry: a solver is one adapter class plus one line here (or, from outside this
+// repository, one registerSolver() call).
+#include <algorithm>
+#include <mutex>
 #include <sstream>
 #include <stdexcept>
 
 #include "solvers/abi.hpp"
+#include "solvers/abi_variants.hpp"
 #include "solvers/eigen.hpp"
 #include "solvers/lapack.hpp"
 #include "solvers/ltdl.hpp"
@@ -10,6 +14,12 @@
 #include "solvers/naive.hpp"
 #ifdef MINV_HAVE_MUJOCO
 #include "solvers/mujoco.hpp"
+#endif
+#ifdef MINV_HAVE_DART
+#include "solvers/dart.hpp"
+#endif
+#ifdef MINV_HAVE_BULLET
+#include "solvers/bullet.hpp"
 #endif
 
 namespace minv {
@@ -22,11 +32,14 @@ SolverEntry entry(const char* name, const char* summary) {
   if constexpr (requires { &T::countStages; }) e.count = &T::countStages;
   return e;
 }
-}  // namespace
 
-const std::vector<SolverEntry>& solverRegistry() {
-  static const std::vector<SolverEntry> registry = {
+std::vector<SolverEntry> builtIn() {
+  return {
       entry<AbiSolver>("abi", "Θ(n²) M⁻¹ from articulated-body inertias (Drumwright Alg. 1-2)"),
+      {"abi-generic",
+       "abi compiled for generic x86-64 (SSE2), like Debian's peer libraries; counts as abi",
+       makeAbiGeneric,
+       {}},
       entry<LapackSolver>("lapack", "CRBA + LAPACKE dpotrf/dpotri/dpotrs (OpenBLAS)"),
       entry<LtlSolver>("ltl", "CRBA + Featherstone 2005 branch-induced-sparsity LᵀL"),
       entry<LtdlSolver>("ltdl", "CRBA + Featherstone 2005 branch-induced-sparsity LᵀDL"),
@@ -35,8 +48,29 @@ const std::vector<SolverEntry>& solverRegistry() {
 #ifdef MINV_HAVE_MUJOCO
       entry<MujocoSolver>("mujoco", "MuJoCo 2.2.2: MJCF model, mj_crb + mj_factorM + mj_solveM"),
 #endif
+#ifdef MINV_HAVE_DART
+      entry<DartSolver>("dart", DartSolver::kSummary),
+#endif
+#ifdef MINV_HAVE_BULLET
+      entry<BulletSolver>("bullet", BulletSolver::kSummary),
+#endif
   };
-  return registry;
+}
+
+struct Registry {
+  std::vector<SolverEntry> entries = builtIn();
+  std::size_t builtin = entries.size();
+  std::mutex mutex;  // registerSolver() may be called from any thread
+};
+
+Registry& registry() {
+  static Registry r;
+  return r;
+}
+}  // namespace
+
+const std::vector<SolverEntry>& solverRegistry() {
+  return registry().entries;
 }
 
 std::vector<std::string> solverNames() {
@@ -45,12 +79,57 @@ std::vector<std::string> solverNames() {
   return names;
 }
 
-std::unique_ptr<Solver> makeSolver(const std::string& name) {
+const SolverEntry* findSolver(const std::string& name) {
   for (const SolverEntry& e : solverRegistry())
-    if (e.name == name) return e.make();
+    if (e.name == name) return &e;
+  return nullptr;
+}
+
+std::unique_ptr<Solver> makeSolver(const std::string& name) {
+  if (const SolverEntry* e = findSolver(name)) return e->make();
   std::ostringstream known;
   for (const SolverEntry& e : solverRegistry()) known << (known.tellp() ? ", " : "") << e.name;
   throw std::invalid_argument("unknown solver '" + name + "' (known: " + known.str() + ")");
+}
+
+std::string solverNameProblem(const std::string& name) {
+  if (name.empty()) return "a solver name must not be empty";
+  if (name.size() > 32) return "solver name '" + name + "' is longer than 32 characters";
+  for (char c : name)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-'))
+      return "solver name '" + name + "' has the character '" + std::string(1, c) +
+             "'; use letters, digits, '_' and '-'";
+  if (!std::isalnum(static_cast<unsigned char>(name[0])))
+    return "solver name '" + name + "' must start with a letter or a digit";
+  if (name == "all" || name == "test-impulse")
+    return "solver name '" + name + "' is reserved by the minv command";
+  return {};
+}
+
+void registerSolver(SolverEntry entry) {
+  if (const std::string why = solverNameProblem(entry.name); !why.empty())
+    throw std::invalid_argument(why);
+  if (entry.summary.empty())
+    throw std::invalid_argument("solver '" + entry.name + "' needs a one-line summary");
+  if (entry.summary.find('\n') != std::string::npos)
+    throw std::invalid_argument("solver '" + entry.name + "': the summary must be one line");
+  if (!entry.make) throw std::invalid_argument("solver '" + entry.name + "' has no factory");
+  Registry& r = registry();
+  std::lock_guard<std::mutex> lock(r.mutex);
+  if (findSolver(entry.name))
+    throw std::invalid_argument("a solver named '" + entry.name + "' is already registered");
+  r.entries.push_back(std::move(entry));
+}
+
+bool unregisterSolver(const std::string& name) {
+  Registry& r = registry();
+  std::lock_guard<std::mutex> lock(r.mutex);
+  for (std::size_t i = r.builtin; i < r.entries.size(); ++i)
+    if (r.entries[i].name == name) {
+      r.entries.erase(r.entries.begin() + static_cast<std::ptrdiff_t>(i));
+      return true;
+    }
+  return false;
 }
 
 }  // namespace minv

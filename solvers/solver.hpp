@@ -19,6 +19,11 @@
 
 namespace minv {
 
+// Outputs are the caller's memory, sized by the caller: a MatrixXd, a block of one, or a
+// numpy array (column-major, any column stride); a solver never resizes them. Inputs likewise.
+using MatrixOut = Eigen::Ref<Eigen::MatrixXd>;
+using MatrixIn = const Eigen::Ref<const Eigen::MatrixXd>&;
+
 class Solver {
  public:
   virtual ~Solver() = default;
@@ -33,10 +38,10 @@ class Solver {
   virtual void prepare(const Model& model) = 0;
   // Per configuration q (size model.nq()).
   virtual void configure(const Eigen::VectorXd& q) = 0;
-  // Minv (nv×nv) = M⁻¹, dense and symmetric.
-  virtual void inverse(Eigen::MatrixXd& Minv) = 0;
+  // Minv (nv×nv) = M⁻¹, dense and symmetric; every entry is written.
+  virtual void inverse(MatrixOut Minv) = 0;
   // X (nv×m) = M⁻¹ R for R (nv×m).
-  virtual void solve(const Eigen::MatrixXd& R, Eigen::MatrixXd& X) = 0;
+  virtual void solve(MatrixIn R, MatrixOut X) = 0;
 };
 
 // Operation counts of one stage of a method: counted by running its kernels on the Counted
@@ -59,17 +64,34 @@ inline std::vector<StageCount> stageCounts(const StageCounter& counter) {
 using CountFn = std::function<std::vector<StageCount>(const Model&, const Eigen::VectorXd& q, int m)>;
 
 struct SolverEntry {
-  std::string name;
-  std::string summary;  // one line for `minv solvers`
+  std::string name;     // see validSolverName(): letters, digits, '_' and '-'
+  std::string summary;  // one line for `minv solvers`: the method, the library, the precision
   std::function<std::unique_ptr<Solver>()> make;
   CountFn count;  // empty where the solver's arithmetic cannot be counted
 };
 
-// Every registered solver, in a fixed order.
+// Every registered solver: the built-in ones in a fixed order, then those added by
+// registerSolver() in the order they were added. The reference stays valid, but a later
+// registerSolver() may add to it (take a copy to iterate while registering).
 const std::vector<SolverEntry>& solverRegistry();
 // The names of the registry, in order.
 std::vector<std::string> solverNames();
 // Throws std::invalid_argument("unknown solver 'x' (known: …)") for an unknown name.
 std::unique_ptr<Solver> makeSolver(const std::string& name);
+// The registry entry of `name`, or nullptr.
+const SolverEntry* findSolver(const std::string& name);
+
+// Adds a solver from outside this repository (an out-of-tree adapter, a Python class), so that
+// the conformance checks (solvers/conformance.hpp), `minv solve --solver all`, `minv flops` and
+// the timing sweeps include it. Throws std::invalid_argument for an invalid or taken name, an
+// empty summary or no factory.
+void registerSolver(SolverEntry entry);
+// Removes a solver added by registerSolver() (built-in ones stay); false if there was none.
+bool unregisterSolver(const std::string& name);
+
+// A solver name is 1 to 32 characters from [A-Za-z0-9_-], starting with a letter or digit, and
+// is neither "all" nor "test-impulse" (words of the `minv` command). Returns the reason it is
+// not valid, or an empty string.
+std::string solverNameProblem(const std::string& name);
 
 }  // namespace minv

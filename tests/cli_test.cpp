@@ -433,3 +433,43 @@ TEST_F(CliRoundTrip, FlopsExperimentWritesItsFile) {
 
 }  // namespace
 }  // namespace minv
+
+namespace minv {
+namespace {
+
+// --q FILE: the solve uses that configuration (stored as q), by numbers or by names.
+TEST_F(CliRoundTrip, SolveAtAGivenConfiguration) {
+  ASSERT_EQ(minv("generate --topology serial --n 3 --out arm.json").status, 0);
+  write("q.txt", "0.1 0.2 0.3\n");
+  const CliRun s = minv("solve --model arm.json --solver abi --q q.txt --out r.h5");
+  ASSERT_EQ(s.status, 0) << s.err;
+  EXPECT_NE(s.out.find("q from q.txt"), std::string::npos) << s.out;
+  H5File f(path("r.h5"));
+  EXPECT_EQ(Eigen::VectorXd(f.matrix("q")), Eigen::Vector3d(0.1, 0.2, 0.3));
+  write("named.txt", "j1 0.5\n");
+  ASSERT_EQ(minv("solve --model arm.json --solver abi --q named.txt --out n.h5").status, 0);
+  EXPECT_EQ(Eigen::VectorXd(H5File(path("n.h5")).matrix("q")), Eigen::Vector3d(0, 0.5, 0));
+}
+
+TEST_F(CliBadInput, BadConfigurationFile) {
+  ASSERT_EQ(minv("generate --topology serial --n 3 --out arm.json").status, 0);
+  write("short.txt", "0.1 0.2\n");
+  expectFailure("solve --model arm.json --q short.txt --out out.h5", "2 numbers, the model needs nq = 3");
+  write("unknown.txt", "elbow 1\n");
+  expectFailure("solve --model arm.json --q unknown.txt --out out.h5", "unknown q name 'elbow'");
+  write("nan.txt", "0 nan 0\n");
+  expectFailure("solve --model arm.json --q nan.txt --out out.h5", "is not a finite number");
+  expectFailure("solve --model arm.json --q missing.txt --out out.h5", "cannot open configuration file");
+  expectFailure("solve --model arm.json --q short.txt --q-seed 3 --out out.h5", "excludes");
+}
+
+// check: the conformance checks from the command; the name column fits long names.
+TEST_F(CliRoundTrip, CheckRunsTheConformanceChecks) {
+  const CliRun r = minv("check --solver lapack --max-n 3");
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("conformance of lapack: PASSED"), std::string::npos) << r.out;
+  expectFailure("check --solver nope", "unknown solver 'nope'");
+}
+
+}  // namespace
+}  // namespace minv

@@ -1,4 +1,4 @@
-#include "sim/centipede_run.hpp"
+#include "experiments/lib/centipede_run.hpp"
 
 #include <algorithm>
 #include <chrono>

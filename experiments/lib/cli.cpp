@@ -1,0 +1,660 @@
+// The `minv` command (runCli, experiments/lib/cli.hpp): generate random trees, invert their
+// joint-space inertia matrix M with every registered solver, check a solver's conformance,
+// count operations, time sweeps, simulate, and list the solvers.
+//
+//   minv generate --topology serial|branched --n N [--seed S] [--floating-base]
+//                 [--joints revolute|mixed] --out FILE.json|FILE.urdf
+//   minv solve --model FILE [--floating-base] [--solver NAME|all] [--q-seed S | --q FILE]
+//              [--rhs M] [--rhs-seed S] --out FILE.h5
+//   minv generate --topology centipede --segments S [--segment-joint yaw|spherical] --out FILE
+//   minv simulate centipede [--segments S] [--steps K] [--dt H] [--solver NAME|test-impulse]
+//                 [--frames F] [--segment-joint yaw|spherical] [--out FILE.h5]   (sim/)
+//   minv simulate sweep [--segments 5,10,20,40] [--solvers abi,lapack,ltdl,test-impulse]
+//                 [--steps K] [--dt H] --out FILE.h5   (Figure 4; appended to and resumed)
+//   minv solvers
+//   minv check [--solver NAME|all] [--max-n N]   (solvers/conformance.hpp; exit 1 if a check
+//              fails)
+//   minv time [--mode quick|full|tiny] [--solvers A,B] [--shard i/N] [--min-time S]
+//             [--repetitions R] [--list] --out FILE.h5   (the timing sweeps of Figures 2 and 3,
+//             Google Benchmark; appended to and resumed; experiments/lib/timing.hpp)
+//   minv flops [--solver NAME|all] --topology serial|branched --n N [--floating-base]
+//              [--joints revolute|mixed] [--rhs M] [--seed S]
+//   minv experiment flops [--max-n N] [--seed S] --out FILE.h5
+//   minv experiment accuracy [--mode quick|full|tiny] --out FILE.h5   (experiments/lib/accuracy.hpp)
+//   minv merge --out FILE.h5 SHARD.h5…   (join timing shard files; experiments/lib/timing.hpp)
+// (build/bench_timing is the same as `minv time`.)
+//
+// Contract: success exits 0. Every failure (bad or missing options, an unreadable or invalid
+// model or configuration file, an unknown solver, a solver error, a non-finite residual, an
+// I/O error) prints one line "minv: error: <message>" to stderr and exits 2. A command that
+// writes one result file (generate, solve, simulate centipede, experiment flops, merge)
+// leaves no output file on failure: it writes FILE.tmp and renames it only on success. The
+// sweeps (experiment accuracy, simulate sweep, time) append point by point to their file, so
+// a failure keeps the points finished before it (a rerun resumes). `check` exits 1 when a
+// conformance check fails.
+// `--help` on any subcommand prints its help and exits 0.
+//
+// solve: q = randomConfiguration(model, q_seed), or read from --q FILE (generators/
+// model_io.hpp: readConfiguration); M from CRBA; for each solver prepare,
+// configure(q), inverse → Minv, relative residual ‖M·Minv − 1‖_F / (‖M‖_F ‖Minv‖_F) (the
+// normalisation of LAPACK's dpot03 test: backward-stable methods reach a few n·ε whatever
+// cond(M) is), residual_identity ‖M·Minv − 1‖_F / √nv (which grows with cond₂(M), also stored,
+// as cond), time = median of 5 repetitions
+// of configure + inverse (a sanity figure; the timing harness is Google Benchmark). With
+// --rhs m > 0 also solve(R) for R (nv×m, entries uniform in [−1, 1) from Rng(rhs_seed), filled
+// column by column), solve_residual = ‖solve(R) − Minv·R‖_F / ‖Minv·R‖_F.
+// HDF5 layout: root datasets q, M, dof_names, parent (DOF parent array), body_parent, and for
+// a floating base base_position (3) and base_quaternion (4, w x y z); root attributes model,
+// nv, nq, nb, max_depth, topology, q_seed, rhs, rhs_seed and the provenance
+// (experiments/lib/provenance.hpp); per solver a group /solvers/<name> with dataset Minv and
+// attributes summary, residual, residual_identity, time_s, repetitions and (with --rhs)
+// solve_residual; the root also holds cond, cond₂(M) from its eigenvalues. A solver
+// that does not support the tree is skipped under `all` (its group holds only `skipped`,
+// the reason) and is an error when named.
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <Eigen/Eigenvalues>
+
+#include "core/crba.hpp"
+#include "experiments/lib/cli.hpp"
+
+#include "experiments/lib/accuracy.hpp"
+#include "experiments/lib/gbench.hpp"
+#include "experiments/lib/flops.hpp"
+#include "experiments/lib/h5writer.hpp"
+#include "experiments/lib/provenance.hpp"
+#include "experiments/lib/timing.hpp"
+#include "generators/centipede.hpp"
+#include "generators/model_io.hpp"
+#include "generators/random_tree.hpp"
+#include "experiments/lib/centipede_run.hpp"
+#include "solvers/conformance.hpp"
+#include "solvers/solver.hpp"
+
+namespace minv {
+namespace {
+
+constexpr int kErrorExit = 2;
+constexpr int kRepetitions = 5;
+
+// Print "<program>: error: <message>" as a single line and give the error exit status.
+int reportError(const std::string& program, std::string message) {
+  std::replace(message.begin(), message.end(), '\n', ' ');
+  std::cerr << program << ": error: " << message << std::endl;
+  return kErrorExit;
+}
+
+// A CLI11 check for seeds and counts: a plain non-negative integer (no sign, no wrap-around).
+const CLI::Validator kNonNegative(
+    [](std::string& value) -> std::string {
+      if (value.empty() || value.find_first_not_of("0123456789") != std::string::npos)
+        return "expected a non-negative integer, got '" + value + "'";
+      return {};
+    },
+    "", "non-negative integer");
+
+// Fail fast, before any work, if the output file's directory does not exist.
+void checkOutputDirectory(const std::string& path) {
+  const std::filesystem::path dir = std::filesystem::path(path).parent_path();
+  std::error_code ec;
+  if (!dir.empty() && !std::filesystem::is_directory(dir, ec))
+    throw std::runtime_error("output directory '" + dir.string() + "' does not exist");
+}
+
+struct GenerateOptions {
+  std::string topology, joints = "revolute", out, segment_joint = "yaw";
+  int n = 0, segments = 0;
+  std::uint64_t seed = 1;
+  bool floating_base = false;
+};
+
+struct SolveOptions {
+  std::string model, solver = "all", out, q_file;
+  bool floating_base = false;
+  std::uint64_t q_seed = 1, rhs_seed = 1;
+  int rhs = 0;
+};
+
+// "serial" if no body has two or more children, else "branched".
+std::string topologyOf(const Model& model) {
+  std::vector<int> children(model.nb(), 0);
+  for (int i = 0; i < model.nb(); ++i)
+    if (model.parent(i) >= 0 && ++children[model.parent(i)] > 1) return "branched";
+  return "serial";
+}
+
+// generate: parse the names, build the tree, save it atomically, print one line.
+int runGenerate(const GenerateOptions& o) {
+  checkOutputDirectory(o.out);
+  if (o.topology == "centipede") {
+    if (o.segments < 1) throw std::invalid_argument("--segments must be at least 1 for a centipede");
+    CentipedeOptions co;
+    co.segments = o.segments;
+    co.segment_joint = segmentJointFromName(o.segment_joint);
+    const Model model = makeCentipede(co).model;
+    saveModel(model, o.out);
+    std::printf("bodies=%d nv=%d max_depth=%d segments=%d segment_joint=%s file=%s\n", model.nb(),
+                model.nv(), model.maxDepth(), o.segments, o.segment_joint.c_str(), o.out.c_str());
+    return 0;
+  }
+  TreeOptions t;
+  t.topology = topologyFromName(o.topology);
+  t.joints = jointSetFromName(o.joints);
+  t.n = o.n;
+  t.seed = o.seed;
+  t.floating_base = o.floating_base;
+  const Model model = randomTree(t);
+  saveModel(model, o.out);
+  std::printf("bodies=%d nv=%d max_depth=%d file=%s\n", model.nb(), model.nv(), model.maxDepth(),
+              o.out.c_str());
+  return 0;
+}
+
+// The solvers to run: one by name (unknown → std::invalid_argument) or the whole registry.
+std::vector<const SolverEntry*> selectSolvers(const std::string& name) {
+  std::vector<const SolverEntry*> out;
+  for (const SolverEntry& e : solverRegistry())
+    if (name == "all" || e.name == name) out.push_back(&e);
+  if (out.empty()) makeSolver(name);  // throws with the list of known names
+  return out;
+}
+
+double seconds(std::chrono::steady_clock::duration d) {
+  return std::chrono::duration<double>(d).count();
+}
+
+// R (nv×m): uniform in [−1, 1), column by column from Rng(seed).
+Eigen::MatrixXd randomRhs(int nv, int m, std::uint64_t seed) {
+  Rng rng(seed);
+  Eigen::MatrixXd R(nv, m);
+  for (int c = 0; c < m; ++c)
+    for (int r = 0; r < nv; ++r) R(r, c) = rng.uniform(-1.0, 1.0);
+  return R;
+}
+
+// One solver on (model, q): checked inverse, median time and optional solve, written to h5.
+void runSolver(const SolverEntry& e, const Model& model, const Eigen::VectorXd& q,
+               const Eigen::MatrixXd& M, const SolveOptions& o, const std::string& topology,
+               H5Writer& h5, bool named, int width) {
+  const std::string group = "solvers/" + e.name;
+  const int nv = model.nv();
+  h5.createGroup(group);
+  h5.setAttribute(group, "summary", e.summary);
+  auto solver = e.make();
+  // A solver that cannot handle this tree: an error if asked for by name, else skipped.
+  std::string why;
+  if (!solver->supports(model, &why)) {
+    if (named)
+      throw std::runtime_error("solver '" + e.name + "' does not support this model: " + why);
+    h5.setAttribute(group, "skipped", why);
+    std::printf("%-*s %-9s %6d  skipped: %s\n", width, e.name.c_str(), topology.c_str(), nv,
+                why.c_str());
+    return;
+  }
+  // First run: prepare, configure, inverse; the residual must be finite.
+  Eigen::MatrixXd X(nv, nv);
+  solver->prepare(model);
+  solver->configure(q);
+  solver->inverse(X);
+  const double defect = (M * X - Eigen::MatrixXd::Identity(nv, nv)).norm();
+  const double residual = defect / (M.norm() * X.norm());
+  const double residual_identity = defect / std::sqrt(static_cast<double>(nv));
+  if (!std::isfinite(residual))
+    throw std::runtime_error("solver '" + e.name + "': residual ‖M·Minv − 1‖ is not finite");
+  // Timing: median of kRepetitions runs of configure + inverse.
+  std::vector<double> times;
+  Eigen::MatrixXd Xt(nv, nv);
+  for (int r = 0; r < kRepetitions; ++r) {
+    const auto t0 = std::chrono::steady_clock::now();
+    solver->configure(q);
+    solver->inverse(Xt);
+    times.push_back(seconds(std::chrono::steady_clock::now() - t0));
+  }
+  std::nth_element(times.begin(), times.begin() + kRepetitions / 2, times.end());
+  const double time_s = times[kRepetitions / 2];
+  h5.writeMatrix(group + "/Minv", X);
+  h5.setAttribute(group, "residual", residual);
+  h5.setAttribute(group, "residual_identity", residual_identity);
+  h5.setAttribute(group, "time_s", time_s);
+  h5.setAttribute(group, "repetitions", kRepetitions);
+  // Optional right-hand sides: solve(R) against Minv·R.
+  std::string solve_col;
+  if (o.rhs > 0) {
+    const Eigen::MatrixXd R = randomRhs(nv, o.rhs, o.rhs_seed);
+    Eigen::MatrixXd Y(nv, o.rhs);
+    solver->solve(R, Y);
+    const Eigen::MatrixXd ref = X * R;
+    const double solve_residual = (Y - ref).norm() / std::max(ref.norm(), 1e-300);
+    if (!std::isfinite(solve_residual))
+      throw std::runtime_error("solver '" + e.name + "': solve residual is not finite");
+    h5.setAttribute(group, "solve_residual", solve_residual);
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "  %9.2e", solve_residual);
+    solve_col = buf;
+  }
+  std::printf("%-*s %-9s %6d  %9.2e  %9.2e  %10.3f%s\n", width, e.name.c_str(), topology.c_str(),
+              nv, residual, residual_identity, time_s * 1e3, solve_col.c_str());
+  std::fflush(stdout);
+}
+
+// solve: validate everything, build M, then write the result file solver by solver.
+int runSolve(const SolveOptions& o) {
+  const std::vector<const SolverEntry*> solvers = selectSolvers(o.solver);
+  checkOutputDirectory(o.out);
+  const Model model = loadModel(o.model, o.floating_base);
+  const Eigen::VectorXd q = o.q_file.empty() ? randomConfiguration(model, o.q_seed)
+                                              : loadConfiguration(model, o.q_file);
+  model.checkConfiguration(q);
+  const Eigen::MatrixXd M = massMatrix(model, q);
+  if (!M.allFinite()) throw std::runtime_error("the mass matrix M has non-finite entries");
+  const std::string topology = topologyOf(model);
+  const Eigen::VectorXd ev = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(M).eigenvalues();
+  const double cond = ev.maxCoeff() / ev.minCoeff();
+
+  // Root: the problem (q, M, numbering) and where it came from.
+  H5Writer h5(o.out);
+  h5.writeVector("q", q);
+  h5.writeMatrix("M", M);
+  h5.writeStrings("dof_names", model.dofNames());
+  h5.writeIntVector("parent", model.dofParent());
+  h5.writeIntVector("body_parent", model.parents());
+  if (model.floatingBase()) {
+    h5.writeVector("base_position", Eigen::VectorXd(q.head<3>()));
+    h5.writeVector("base_quaternion", Eigen::VectorXd(q.segment<4>(3)));
+  }
+  h5.setAttribute("/", "model", o.model);
+  h5.setAttribute("/", "nv", model.nv());
+  h5.setAttribute("/", "nq", model.nq());
+  h5.setAttribute("/", "nb", model.nb());
+  h5.setAttribute("/", "max_depth", model.maxDepth());
+  h5.setAttribute("/", "topology", topology);
+  h5.setAttribute("/", "cond", cond);
+  h5.setAttribute("/", "q_seed", o.q_seed);
+  if (!o.q_file.empty()) h5.setAttribute("/", "q_file", o.q_file);
+  h5.setAttribute("/", "rhs", o.rhs);
+  h5.setAttribute("/", "rhs_seed", o.rhs_seed);
+  writeProvenance(h5, "/");
+
+  // One row per solver.
+  const std::string q_from = o.q_file.empty() ? "q_seed " + std::to_string(o.q_seed)
+                                               : "q from " + o.q_file;
+  std::printf("# %s\n# model %s: %d bodies, nv %d, max depth %d, %s, cond(M) %.2e\n",
+              provenanceSummary().c_str(), o.model.c_str(), model.nb(), model.nv(),
+              model.maxDepth(), q_from.c_str(), cond);
+  std::printf("# residual = |M X - I|_F / (|M|_F |X|_F); residual_I = |M X - I|_F / sqrt(n)\n");
+  // The name column is as wide as the longest name.
+  int width = 6;
+  for (const SolverEntry* e : solvers) width = std::max(width, static_cast<int>(e->name.size()));
+  std::printf("%-*s %-9s %6s  %9s  %9s  %10s%s\n", width, "solver", "topology", "n", "residual",
+              "residual_I", "time_ms", o.rhs > 0 ? "  solve_res" : "");
+  const bool named = o.solver != "all";
+  for (const SolverEntry* e : solvers) runSolver(*e, model, q, M, o, topology, h5, named, width);
+  h5.commit();
+  std::printf("wrote %s\n", o.out.c_str());
+  return 0;
+}
+
+struct FlopsOptions {
+  std::string solver = "all", topology, joints = "revolute";
+  int n = 0, rhs = 0;
+  std::uint64_t seed = 1;
+  bool floating_base = false;
+};
+
+// flops: per-stage operation counts of one or every solver on one random tree.
+int runFlops(const FlopsOptions& o) {
+  const std::vector<const SolverEntry*> solvers = selectSolvers(o.solver);
+  const Model model = randomTree({topologyFromName(o.topology), o.n, o.seed, o.floating_base,
+                                  jointSetFromName(o.joints)});
+  const Eigen::VectorXd q = randomConfiguration(model, o.seed);
+  std::printf("# %s tree, %d bodies, nv %d, max depth %d, %s; counts for %s\n", o.topology.c_str(),
+              model.nb(), model.nv(), model.maxDepth(), o.floating_base ? "floating base" : "fixed base",
+              o.rhs > 0 ? ("M^-1 R, " + std::to_string(o.rhs) + " columns").c_str() : "M^-1");
+  for (const SolverEntry* e : solvers) {
+    std::printf("\n");
+    if (!e->count) {
+      std::printf("%s: not counted (its arithmetic cannot run on the counting scalar)\n",
+                  e->name.c_str());
+      continue;
+    }
+    printStageTable(std::cout, e->name, e->count(model, q, o.rhs));
+    if (e->name == "abi" && o.rhs == 0) {
+      std::printf("\n# abi per processor, one processor per column (Table 3)\n");
+      printStageTable(std::cout, "abi/proc", abiParallelCounts(model, q));
+    }
+    std::cout.flush();
+  }
+  return 0;
+}
+
+struct ExperimentOptions {
+  std::string out;
+  int max_n = 256;
+  std::uint64_t seed = 1;
+};
+
+// experiment flops: the operation-count sweep behind Tables 1-3 and Figure 1.
+int runFlopsExperiment(const ExperimentOptions& o) {
+  checkOutputDirectory(o.out);
+  if (o.max_n < 2) throw std::invalid_argument("--max-n must be at least 2");
+  FlopsSweep sweep;
+  sweep.n.clear();
+  for (int n = 2; n <= o.max_n; n *= 2) sweep.n.push_back(n);
+  sweep.seed = o.seed;
+  runFlopsSweep(sweep, o.out, std::cout);
+  return 0;
+}
+
+struct AccuracyOptions {
+  std::string mode = "quick", out;
+};
+
+// experiment accuracy: residuals and forward errors vs a long-double reference, vs n.
+int runAccuracyExperiment(const AccuracyOptions& o) {
+  const AccuracySweep sweep = accuracySweep(o.mode);
+  checkOutputDirectory(o.out);
+  runAccuracySweep(sweep, o.out, std::cout);
+  return 0;
+}
+
+struct MergeOptions {
+  std::string out;
+  std::vector<std::string> inputs;
+};
+
+// merge: join shard files of a sweep into one file.
+int runMerge(const MergeOptions& o) {
+  checkOutputDirectory(o.out);
+  for (const std::string& in : o.inputs)
+    if (!std::filesystem::is_regular_file(in))
+      throw std::runtime_error("input file '" + in + "' does not exist");
+  const int points = mergeResultFiles(o.inputs, o.out);
+  std::printf("merged %d points from %zu files into %s\n", points, o.inputs.size(), o.out.c_str());
+  return 0;
+}
+
+struct SimulateOptions {
+  sim::CentipedeRunOptions run;
+  std::string out;
+  sim::CentipedeSweepOptions sweep;
+};
+
+// simulate centipede: one walk, progress on stdout, the net displacement, optionally HDF5.
+int runSimulate(SimulateOptions o) {
+  if (!o.out.empty()) checkOutputDirectory(o.out);
+  std::unique_ptr<H5Writer> h5;
+  if (!o.out.empty()) h5 = std::make_unique<H5Writer>(o.out);
+  const sim::CentipedeRunResult r = sim::runCentipede(o.run, std::cout, h5.get(), "/");
+  std::printf("times (s): dynamics %.3f  collision %.3f  contact matrices %.3f  contact solve "
+              "%.3f  update %.3f  total %.3f\n",
+              r.times.dynamics, r.times.collision, r.times.matrices, r.times.solve, r.times.update,
+              r.times.total());
+  std::printf("contact residuals (max): penetration %.2e m/s  cone %.2e  complementarity %.2e  "
+              "kkt %.2e; pgs iterations max %d, unconverged steps %d\n",
+              r.max_penetration, r.max_cone, r.max_complementarity, r.max_kkt,
+              r.max_pgs_iterations, r.unconverged_steps);
+  std::printf("net displacement: head dx=%+.4f m dy=%+.4f m; centre of mass dx=%+.4f m dy=%+.4f m\n",
+              r.head_dx, r.head_dy, r.com_dx, r.com_dy);
+  if (h5) {
+    writeProvenance(*h5, "/");
+    h5->commit();
+    std::printf("wrote %s\n", o.out.c_str());
+  }
+  return 0;
+}
+
+// simulate sweep: the Figure 4 timings, one point per (segments, solver).
+int runSimulateSweep(const SimulateOptions& o) {
+  checkOutputDirectory(o.sweep.out);
+  sim::runCentipedeSweep(o.sweep, std::cout);
+  return 0;
+}
+
+struct CheckOptions {
+  std::string solver = "all";
+  int max_n = 300;
+};
+
+// check: the conformance checks (solvers/conformance.hpp) of one or every solver; exit 1 if
+// any fails.
+int runCheck(const CheckOptions& o) {
+  const std::vector<const SolverEntry*> solvers = selectSolvers(o.solver);
+  ConformanceOptions options;
+  options.max_n = o.max_n;
+  bool all_passed = true;
+  for (const SolverEntry* e : solvers) {
+    const ConformanceReport r = checkSolver(e->name, e->make, options);
+    r.print(std::cout);
+    std::cout.flush();
+    all_passed &= r.passed() || (r.checks.empty() && r.errors.empty());
+  }
+  return all_passed ? 0 : 1;
+}
+
+struct TimeOptions {
+  std::string mode = "quick", shard = "0/1", out;
+  std::vector<std::string> solvers;
+  double min_time = -1;
+  int repetitions = -1;
+  bool list = false;
+};
+
+// time: the timing sweeps (experiments/lib/timing.hpp) measured with Google Benchmark.
+int runTime(const TimeOptions& o, const std::string& program) {
+  TimingSweep sweep = timingSweep(o.mode);
+  if (o.min_time > 0) sweep.min_time = o.min_time;
+  if (o.repetitions > 0) sweep.repetitions = o.repetitions;
+  // --solvers: only these (each must be registered).
+  if (!o.solvers.empty()) {
+    for (const std::string& name : o.solvers) makeSolver(name);
+    for (SweepBlock& b : sweep.blocks) {
+      std::vector<std::string> keep;
+      const std::vector<std::string> from = b.solvers.empty() ? solverNames() : b.solvers;
+      for (const std::string& name : from)
+        if (std::find(o.solvers.begin(), o.solvers.end(), name) != o.solvers.end())
+          keep.push_back(name);
+      if (keep.empty()) b.n.clear();  // no solver of this block was asked for
+      b.solvers = keep;
+    }
+  }
+  const Shard shard = parseShard(o.shard);
+  if (o.list) {
+    for (const auto& p : shardPoints(sweepPoints(sweep), shard)) {
+      const auto skip = skipReason(p.solver, p.family, p.topology, p.n, sweep.mode);
+      std::cout << p.name() << (skip ? "  skipped: " + *skip : "") << "\n";
+    }
+    return 0;
+  }
+  if (o.out.empty()) throw std::invalid_argument("--out is required");
+  checkOutputDirectory(o.out);
+  std::cout << "# " << provenanceSummary() << "\n# sweep " << sweep.mode << ", shard " << o.shard
+            << ", min_time " << sweep.min_time << " s, " << sweep.repetitions
+            << " repetitions -> " << o.out << std::endl;
+  const SweepStats st = runTimingSweep(sweep, shard, o.out, measureWithGoogleBenchmark, std::cout);
+  std::cout << program << ": " << st.measured << " measured, " << st.skipped << " skipped, "
+            << st.resumed << " already in " << o.out << std::endl;
+  return 0;
+}
+
+// solvers: name and summary, one line each.
+int runSolvers() {
+  std::size_t width = 0;
+  for (const SolverEntry& e : solverRegistry()) width = std::max(width, e.name.size());
+  for (const SolverEntry& e : solverRegistry())
+    std::printf("%-*s  %s\n", static_cast<int>(width), e.name.c_str(), e.summary.c_str());
+  return 0;
+}
+
+}  // namespace
+
+int runCli(int argc, char** argv, const std::string& program) {
+  auto reportError = [&program](const std::string& message) {
+    return minv::reportError(program, message);
+  };
+  CLI::App app{program + ": the joint-space inertia matrix M of articulated trees and its inverse",
+               program};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", collectProvenance().minv_version);
+
+  // generate
+  GenerateOptions g;
+  CLI::App* gen = app.add_subcommand("generate", "Write a random tree to a model file");
+  gen->add_option("--topology", g.topology, "serial | branched (the paper's §6.1 rule) | centipede")
+      ->required();
+  gen->add_option("--n", g.n,
+                  "Number of jointed links, not counting a floating base (> 0; required "
+                  "except for --topology centipede, which takes --segments)");
+  gen->add_option("--seed", g.seed, "Random seed")->check(kNonNegative)->capture_default_str();
+  gen->add_flag("--floating-base", g.floating_base, "Add a floating base body");
+  gen->add_option("--joints", g.joints, "revolute | mixed (revolute, prismatic, spherical)")
+      ->capture_default_str();
+  gen->add_option("--out", g.out, "Output model file, .json or .urdf")->required();
+
+  // solve
+  SolveOptions s;
+  CLI::App* sol = app.add_subcommand("solve", "Invert M with one or all solvers; write HDF5");
+  sol->add_option("--model", s.model, "Model file: .json, .urdf or .xml (MJCF)")->required();
+  sol->add_flag("--floating-base", s.floating_base, "Give the model a floating base");
+  sol->add_option("--solver", s.solver, "Solver name (see `minv solvers`) or all")
+      ->capture_default_str();
+  CLI::Option* qseed = sol->add_option("--q-seed", s.q_seed, "Seed of the random configuration q")
+                           ->check(kNonNegative)
+                           ->capture_default_str();
+  sol->add_option("--q", s.q_file,
+                  "Configuration file instead of a random q: nq numbers in q order, or "
+                  "'name value' lines (names: minv's q names, see the README)")
+      ->excludes(qseed);
+  sol->add_option("--rhs", s.rhs, "Also solve M X = R for this many random columns")
+      ->check(kNonNegative)
+      ->capture_default_str();
+  sol->add_option("--rhs-seed", s.rhs_seed, "Seed of the random right-hand sides")
+      ->check(kNonNegative)
+      ->capture_default_str();
+  sol->add_option("--out", s.out, "Output HDF5 file")->required();
+
+  // solvers
+  CLI::App* list = app.add_subcommand("solvers", "List the registered solvers");
+
+  // check
+  CheckOptions ck;
+  CLI::App* chk = app.add_subcommand("check", "Run the conformance checks on solvers (exit 1 on a failure)");
+  chk->add_option("--solver", ck.solver, "Solver name or all")->capture_default_str();
+  chk->add_option("--max-n", ck.max_n, "Largest tree (cases n = 1, 2, 3, 7, 32, 100, 300)")
+      ->capture_default_str();
+
+  // time
+  TimeOptions tm;
+  CLI::App* tim = app.add_subcommand("time", "Timing sweeps (Figures 2, 3) with Google Benchmark");
+  tim->add_option("--mode", tm.mode, "quick | full | tiny")->capture_default_str();
+  tim->add_option("--solvers", tm.solvers, "Only these solvers")->delimiter(',');
+  tim->add_option("--shard", tm.shard, "Run the points i, i+N, i+2N, … of the sweep")
+      ->capture_default_str();
+  tim->add_option("--min-time", tm.min_time, "Google Benchmark min time per repetition (s)");
+  tim->add_option("--repetitions", tm.repetitions, "Repetitions per point");
+  tim->add_flag("--list", tm.list, "Print the shard's points and exit");
+  tim->add_option("--out", tm.out, "Output HDF5 file (appended to and resumed)");
+
+  // flops
+  FlopsOptions f;
+  CLI::App* fl = app.add_subcommand("flops", "Print measured operation counts per stage");
+  fl->add_option("--solver", f.solver, "Solver name or all")->capture_default_str();
+  fl->add_option("--topology", f.topology, "serial | branched")->required();
+  fl->add_option("--n", f.n, "Number of jointed links (> 0)")->required();
+  fl->add_flag("--floating-base", f.floating_base, "Add a floating base body");
+  fl->add_option("--joints", f.joints, "revolute | mixed")->capture_default_str();
+  fl->add_option("--rhs", f.rhs, "Count M^-1 R with this many columns instead of M^-1")
+      ->check(kNonNegative)
+      ->capture_default_str();
+  fl->add_option("--seed", f.seed, "Random seed")->check(kNonNegative)->capture_default_str();
+
+  // experiment
+  CLI::App* exp = app.add_subcommand("experiment", "Run an experiment sweep into results/");
+  exp->require_subcommand(1);
+  ExperimentOptions x;
+  CLI::App* xfl = exp->add_subcommand("flops", "Operation counts vs n (Tables 1-3, Figure 1)");
+  xfl->add_option("--max-n", x.max_n, "Largest n (powers of two from 2)")->capture_default_str();
+  xfl->add_option("--seed", x.seed, "Random seed")->check(kNonNegative)->capture_default_str();
+  xfl->add_option("--out", x.out, "Output HDF5 file")->required();
+  AccuracyOptions xa;
+  CLI::App* xac = exp->add_subcommand("accuracy", "Residual and error vs a long-double reference, vs n");
+  xac->add_option("--mode", xa.mode, "quick | full | tiny")->capture_default_str();
+  xac->add_option("--out", xa.out, "Output HDF5 file (appended to and resumed)")->required();
+
+  // merge
+  MergeOptions mg;
+  CLI::App* mrg = app.add_subcommand("merge", "Join the shard files of a sweep into one file");
+  mrg->add_option("--out", mg.out, "Output HDF5 file")->required();
+  mrg->add_option("inputs", mg.inputs, "Shard files")->required();
+
+  gen->add_option("--segments", g.segments, "Centipede: number of body segments (>= 1)");
+  gen->add_option("--segment-joint", g.segment_joint, "Centipede: yaw | spherical")
+      ->capture_default_str();
+
+  // simulate
+  SimulateOptions sm;
+  CLI::App* simc = app.add_subcommand("simulate", "Contact dynamics: the walking centipede (sim/)");
+  simc->require_subcommand(1);
+  CLI::App* scen = simc->add_subcommand("centipede", "One walk; prints the net displacement");
+  scen->add_option("--segments", sm.run.segments, "Body segments (>= 1)")->capture_default_str();
+  scen->add_option("--steps", sm.run.steps, "Time steps")->capture_default_str();
+  scen->add_option("--dt", sm.run.dt, "Step size (s)")->capture_default_str();
+  scen->add_option("--solver", sm.run.solver, "Contact-space path: a solver name or test-impulse")
+      ->capture_default_str();
+  scen->add_option("--segment-joint", sm.run.segment_joint, "yaw | spherical")->capture_default_str();
+  scen->add_option("--frames", sm.run.frames, "Trajectory frames to save")->capture_default_str();
+  scen->add_option("--out", sm.out, "Output HDF5 file (optional)");
+  CLI::App* ssw = simc->add_subcommand("sweep", "Figure 4: time per step vs segments and solver");
+  ssw->add_option("--segments", sm.sweep.segments, "Segment counts")->delimiter(',')
+      ->capture_default_str();
+  ssw->add_option("--solvers", sm.sweep.solvers, "Paths")->delimiter(',')->capture_default_str();
+  ssw->add_option("--steps", sm.sweep.steps, "Time steps per run")->capture_default_str();
+  ssw->add_option("--dt", sm.sweep.dt, "Step size (s)")->capture_default_str();
+  ssw->add_option("--out", sm.sweep.out, "Output HDF5 file (appended to and resumed)")->required();
+
+  // An unknown subcommand word (CLI11 would only say that one is required).
+  bool known = false;
+  for (CLI::App* sub : {gen, sol, list, chk, tim, fl, exp, mrg, simc})
+    known |= argc > 1 && sub->check_name(argv[1]);
+  if (argc > 1 && argv[1][0] != '-' && !known)
+    return reportError(std::string("unknown subcommand '") + argv[1] +
+                       "' (expected generate, solve, solvers, check, time, flops, experiment, "
+                       "merge or simulate)");
+  // Parse: --help/--version exit 0 through CLI11; every other parse error is one line, exit 2.
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) return app.exit(e);
+    return reportError(e.what());
+  }
+  // Run: any exception is one line, exit 2.
+  try {
+    if (gen->parsed()) return runGenerate(g);
+    if (sol->parsed()) return runSolve(s);
+    if (list->parsed()) return runSolvers();
+    if (chk->parsed()) return runCheck(ck);
+    if (tim->parsed()) return runTime(tm, program);
+    if (fl->parsed()) return runFlops(f);
+    if (xfl->parsed()) return runFlopsExperiment(x);
+    if (xac->parsed()) return runAccuracyExperiment(xa);
+    if (mrg->parsed()) return runMerge(mg);
+    if (scen->parsed()) return runSimulate(sm);
+    if (ssw->parsed()) return runSimulateSweep(sm);
+    return reportError("no subcommand given");
+  } catch (const std::exception& e) {
+    return reportError(e.what());
+  } catch (...) {
+    return reportError("unknown failure");
+  }
+}
+
+}  // namespace minv

@@ -1,0 +1,225 @@
+#include "solvers/conformance.hpp"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <map>
+#include <mutex>
+#include <sstream>
+
+#include "core/crba.hpp"
+#include "generators/model_io.hpp"
+
+namespace minv {
+
+namespace {
+
+constexpr int kRhsColumns = 11;  // a full block of abi's 8 or 16 lanes would need 16: 11 is
+                                 // one partial block for 16 lanes and one full + one partial
+                                 // for 8 (the AVX2 half width)
+
+double rel(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
+  return (a - b).norm() / std::max(b.norm(), 1e-300);
+}
+
+Model buildModel(const ConformanceCase& c) {
+  Model m = randomTree(c.options);
+  if (!c.via_urdf) return m;
+  std::ostringstream xml;
+  writeUrdf(m, xml, c.name);
+  return readUrdf(xml.str(), c.name + ".urdf", c.options.floating_base);
+}
+
+double condition(const Eigen::MatrixXd& M) {
+  const Eigen::VectorXd ev = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(M).eigenvalues();
+  return ev.maxCoeff() / ev.minCoeff();
+}
+
+double bound(double n, double kappa) {
+  return 10 * (n + 10) * kappa * std::numeric_limits<double>::epsilon();
+}
+
+}  // namespace
+
+std::vector<ConformanceCase> conformanceCases(const ConformanceOptions& options) {
+  std::vector<ConformanceCase> out;
+  for (int n : {1, 2, 3, 7, 32, 100, 300}) {
+    if (n > options.max_n) continue;
+    for (Topology t : {Topology::Serial, Topology::Branched})
+      for (bool floating : {false, true})
+        for (JointSet j : {JointSet::Revolute, JointSet::Mixed}) {
+          TreeOptions o{t, n, static_cast<std::uint64_t>(1000 + n), floating, j};
+          std::string name = std::string(topologyName(t)) + "_" + jointSetName(j) +
+                             (floating ? "_floating" : "_fixed") + "_n" + std::to_string(n);
+          out.push_back({name, o, false});
+          // URDF carries 1-DOF joints: round-trip the revolute trees through it.
+          if (options.urdf && j == JointSet::Revolute && n <= 100)
+            out.push_back({name + "_urdf", o, true});
+        }
+  }
+  return out;
+}
+
+const ConformanceProblem& conformanceProblem(const ConformanceCase& c) {
+  static std::mutex mutex;
+  static std::map<std::string, std::unique_ptr<ConformanceProblem>> memo;
+  std::lock_guard<std::mutex> lock(mutex);
+  auto it = memo.find(c.name);
+  if (it != memo.end()) return *it->second;
+  auto p = std::make_unique<ConformanceProblem>(buildModel(c));
+  const int n = p->model.nv();
+  // Two seeded configurations, M at each from CRBA, and the dense reference inverse.
+  p->q = randomConfiguration(p->model, c.options.seed + 7);
+  p->q2 = randomConfiguration(p->model, c.options.seed + 8);
+  p->M = massMatrix(p->model, p->q);
+  p->M2 = massMatrix(p->model, p->q2);
+  p->Xref = p->M.llt().solve(Eigen::MatrixXd::Identity(n, n));
+  p->kappa = condition(p->M);
+  p->kappa2 = condition(p->M2);
+  p->tol = bound(n, p->kappa);
+  p->tol2 = bound(n, p->kappa2);
+  // Seeded right-hand sides, deterministic on every platform.
+  p->R = Eigen::MatrixXd::NullaryExpr(n, kRhsColumns, [](Eigen::Index i, Eigen::Index j) {
+    return std::sin(1.0 + 3.0 * static_cast<double>(i) + 7.0 * static_cast<double>(j));
+  });
+  return *memo.emplace(c.name, std::move(p)).first->second;
+}
+
+void checkCase(const SolverFactory& make, const ConformanceCase& c, ConformanceReport& report,
+               const ConformanceOptions& options) {
+  const ConformanceProblem& p = conformanceProblem(c);
+  const int n = p.model.nv();
+  auto add = [&](const std::string& check, double value, double bound) {
+    report.checks.push_back({c.name, check, value, bound, value <= bound});  // NaN fails
+  };
+  try {
+    std::unique_ptr<Solver> s = make();
+    std::string why;
+    if (!s->supports(p.model, &why)) {
+      report.skipped.emplace_back(c.name, why.empty() ? "not supported" : why);
+      return;
+    }
+    // One thread: M⁻¹, M⁻¹R for 11 columns and for one.
+    s->setThreads(1);
+    s->prepare(p.model);
+    s->configure(p.q);
+    Eigen::MatrixXd X(n, n), Y(n, kRhsColumns), Y1(n, 1);
+    X.setConstant(std::numeric_limits<double>::quiet_NaN());  // every entry must be written
+    s->inverse(X);
+    s->solve(p.R, Y);
+    s->solve(p.R.leftCols(1), Y1);
+    const Eigen::MatrixXd I = Eigen::MatrixXd::Identity(n, n);
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    const bool finite = X.allFinite() && Y.allFinite() && Y1.allFinite();
+    add("finite", finite ? 0 : nan, 0);
+    add("inverse |MX-I|", rel(p.M * X, I), p.tol);
+    // Each triangle on its own against the reference: independent of any mirroring.
+    const Eigen::MatrixXd upper = X.triangularView<Eigen::Upper>();
+    const Eigen::MatrixXd lower = X.triangularView<Eigen::Lower>();
+    add("upper triangle vs dense inverse",
+        rel(upper, Eigen::MatrixXd(p.Xref.triangularView<Eigen::Upper>())), 2 * p.tol);
+    add("lower triangle vs dense inverse",
+        rel(lower, Eigen::MatrixXd(p.Xref.triangularView<Eigen::Lower>())), 2 * p.tol);
+    add("symmetric", rel(X, X.transpose()), p.tol);
+    add("solve(R) vs X R", rel(Y, X * p.R), p.tol);
+    add("solve(r) one column", rel(Y1, X * p.R.leftCols(1)), p.tol);
+    // A second configuration: the solver must recompute, not return a cached result.
+    if (options.reconfigure) {
+      Eigen::MatrixXd X2(n, n);
+      s->configure(p.q2);
+      s->inverse(X2);
+      add("reconfigure |M2 X2 - I|", rel(p.M2 * X2, I), p.tol2);
+    }
+    // Two threads (where a solver uses them: abi's column blocks run in parallel).
+    if (options.two_threads) {
+      std::unique_ptr<Solver> t = make();
+      t->setThreads(2);
+      t->prepare(p.model);
+      t->configure(p.q);
+      Eigen::MatrixXd Xt(n, n), Yt(n, kRhsColumns);
+      t->inverse(Xt);
+      t->solve(p.R, Yt);
+      add("2 threads: inverse", rel(p.M * Xt, I), p.tol);
+      add("2 threads: symmetric", rel(Xt, Xt.transpose()), p.tol);
+      add("2 threads: |M solve(R) - R|", rel(p.M * Yt, p.R), p.tol);
+    }
+  } catch (const std::exception& e) {
+    report.errors.emplace_back(c.name, e.what());
+  }
+}
+
+ConformanceReport checkSolver(const std::string& label, const SolverFactory& make,
+                              const ConformanceOptions& options) {
+  ConformanceReport report;
+  report.solver = label;
+  for (const ConformanceCase& c : conformanceCases(options)) checkCase(make, c, report, options);
+  return report;
+}
+
+ConformanceReport checkSolver(const std::string& name, const ConformanceOptions& options) {
+  const SolverEntry* e = findSolver(name);
+  if (!e) makeSolver(name);  // throws with the list of known names
+  return checkSolver(name, e->make, options);
+}
+
+bool ConformanceReport::passed() const {
+  return failures() == 0 && errors.empty() && !checks.empty();
+}
+
+int ConformanceReport::failures() const {
+  return static_cast<int>(std::count_if(checks.begin(), checks.end(),
+                                        [](const ConformanceCheck& c) { return !c.passed; }));
+}
+
+const ConformanceCheck* ConformanceReport::worst() const {
+  const ConformanceCheck* w = nullptr;
+  double worst_ratio = -1;
+  for (const ConformanceCheck& c : checks) {
+    const double r = c.bound > 0 ? c.value / c.bound : (c.value > 0 || !c.passed ? 1e300 : 0);
+    const double key = std::isnan(r) ? 1e300 : r;
+    if (key > worst_ratio) worst_ratio = key, w = &c;
+  }
+  return w;
+}
+
+void ConformanceReport::print(std::ostream& out, int max_failures) const {
+  std::size_t cases = 0;
+  {
+    std::vector<std::string> names;
+    for (const ConformanceCheck& c : checks) names.push_back(c.case_name);
+    std::sort(names.begin(), names.end());
+    cases = std::unique(names.begin(), names.end()) - names.begin();
+  }
+  out << "conformance of " << solver << ": " << (passed() ? "PASSED" : "FAILED") << ", " << cases
+      << " cases, " << checks.size() - failures() << "/" << checks.size() << " checks passed, "
+      << skipped.size() << " skipped, " << errors.size() << " errors\n";
+  char buf[256];
+  if (const ConformanceCheck* w = worst()) {
+    std::snprintf(buf, sizeof buf, "  worst: %s on %s: %.3g (bound %.3g)\n", w->check.c_str(),
+                  w->case_name.c_str(), w->value, w->bound);
+    out << buf;
+  }
+  int shown = 0;
+  for (const ConformanceCheck& c : checks)
+    if (!c.passed && shown++ < max_failures) {
+      std::snprintf(buf, sizeof buf, "  FAIL %s on %s: %.3g > %.3g\n", c.check.c_str(),
+                    c.case_name.c_str(), c.value, c.bound);
+      out << buf;
+    }
+  for (const auto& [name, what] : errors) out << "  ERROR on " << name << ": " << what << "\n";
+  if (!skipped.empty())
+    out << "  skipped " << skipped.size() << " cases, e.g. " << skipped.front().first << ": "
+        << skipped.front().second << "\n";
+}
+
+std::string testNameOf(const std::string& text) {
+  std::string out = text;
+  for (char& ch : out)
+    if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
+  return out;
+}
+
+}  // namespace minv
