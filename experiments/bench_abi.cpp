@@ -28,6 +28,7 @@
 #include <string>
 #include <vector>
 
+#include "experiments/lib/budget.hpp"
 #include "experiments/lib/h5writer.hpp"
 #include "experiments/lib/provenance.hpp"
 #include "generators/random_tree.hpp"
@@ -56,13 +57,18 @@ const Problem& problem(Topology t, int n) {
   return *p;
 }
 
-// Which solvers reach which n, as data: dense-cubic peers stop early in quick mode, and in
-// quick mode only the serial chain (the targets) goes to n = 4096.
-int maxN(const std::string& solver, bool full, Topology t) {
-  if (solver == "mujoco") return full ? 512 : 256;  // its compiler is cubic: 11 s at n = 1000
-  if (solver == "ltdl") return full ? 2048 : 512;  // cubic on chains: 3.6 s at n = 1024, m = 64
-  if (solver == "eigen") return full ? 4096 : 2048;  // 35 s at n = 4096
-  return full || t == Topology::Serial ? 4096 : 2048;
+// Whether a solver's point is measured: the one skip table (experiments/lib/budget.hpp,
+// family "perf").
+bool affordable(const std::string& solver, bool full, Topology t, int n) {
+  return !skipReason(solver, "perf", topologyName(t), n, full ? "full" : "quick");
+}
+
+// Every registered solver: abi first, then the registry's order.
+std::vector<std::string> peers() {
+  std::vector<std::string> out = {"abi"};
+  for (const std::string& s : solverNames())
+    if (s != "abi") out.push_back(s);
+  return out;
 }
 
 struct Median {
@@ -157,19 +163,17 @@ void registerParts(int n) {
 
 void registerAll(bool full) {
   const std::vector<int> sizes = {8, 16, 32, 64, 128, 256, 512, 1024, 2048, 4096};
-  std::vector<std::string> peers;
-  for (const char* s : {"abi", "lapack", "eigen", "ltdl", "mujoco"})
-    if (std::find(solverNames().begin(), solverNames().end(), s) != solverNames().end())
-      peers.push_back(s);
   for (Topology t : {Topology::Serial, Topology::Branched})
     for (int n : sizes) {
-      for (const std::string& s : peers) {
-        if (n > maxN(s, full, t)) continue;
+      for (const std::string& s : peers()) {
+        if (!affordable(s, full, t, n)) continue;
         registerSolver(s, t, n, 0, 1);
-        for (int m : full ? std::vector<int>{1, 8, 64} : std::vector<int>{8})
-          registerSolver(s, t, n, m, 1);
+        // M⁻¹R for abi and the Cholesky family's reference (--full: every solver).
+        if (full || s == "abi" || s == "lapack")
+          for (int m : full ? std::vector<int>{1, 8, 64} : std::vector<int>{8})
+            registerSolver(s, t, n, m, 1);
       }
-      if (n >= 256 && n <= maxN("abi", full, t)) registerSolver("abi", t, n, 0, 2);
+      if (n >= 256 && affordable("abi", full, t, n)) registerSolver("abi", t, n, 0, 2);
       if (n >= 256 && t == Topology::Serial) registerParts(n);
     }
   for (int n : sizes) {
@@ -233,21 +237,53 @@ void report(bool full, const std::string& out) {
       file->setAttribute("runs/" + name, "median_s", m.median);
     }
   }
+  const std::vector<int> sizes = {8, 16, 32, 64, 128, 256, 512, 1024, 2048, 4096};
   for (Topology t : {Topology::Serial, Topology::Branched}) {
     const std::string T = topologyName(t);
-    std::printf("\n%s, full M^-1 (configure + inverse), medians; ratios = peer time / abi time\n",
-                T.c_str());
-    std::printf("%6s %10s %8s %8s %8s %8s %9s %7s %8s %8s %9s\n", "n", "abi_us", "lapack", "eigen",
-                "ltdl", "mujoco", "abi_GF/s", "%dgemm", "abi/store", "2thr", "solve8:lap");
-    std::vector<double> ns, cols[10];
-    for (int n : {8, 16, 32, 64, 128, 256, 512, 1024, 2048, 4096}) {
+    auto time = [&](const std::string& s, int n) {
+      return med("inverse/" + T + "/" + s + "/" + std::to_string(n));
+    };
+    // abi against every peer: peer time / abi time, and the same against abi built for generic
+    // x86-64 (like Debian's prebuilt peers).
+    std::vector<std::string> others;
+    for (const std::string& s : peers())
+      if (s != "abi") others.push_back(s);
+    for (const char* base : {"abi", "abi-generic"}) {
+      if (!findSolver(base)) continue;
+      std::printf("\n%s, full M^-1 (configure + inverse), medians; ratios = peer time / %s time "
+                  "(0.00 = not measured at that n)\n%6s %10s",
+                  T.c_str(), base, "n", (std::string(base) + "_us").c_str());
+      for (const std::string& s : others)
+        if (s != base) std::printf(" %*s", static_cast<int>(std::max<std::size_t>(8, s.size())), s.c_str());
+      std::printf("\n");
+      std::vector<double> ns;
+      std::map<std::string, std::vector<double>> cols;
+      for (int n : sizes) {
+        const double b = time(base, n);
+        if (b == 0) continue;
+        ns.push_back(n);
+        cols[std::string(base) + "_us"].push_back(b * 1e6);
+        std::printf("%6d %10.1f", n, b * 1e6);
+        for (const std::string& s : others) {
+          if (s == base) continue;
+          const double x = time(s, n), r = x > 0 ? x / b : 0.0;
+          cols[s + "_over_" + (std::string(base) == "abi" ? "abi" : "abi_generic")].push_back(r);
+          std::printf(" %*.2f", static_cast<int>(std::max<std::size_t>(8, s.size())), r);
+        }
+        std::printf("\n");
+      }
+      const std::string g = std::string("ratios/") + T + (std::string(base) == "abi" ? "" : "/generic");
+      h5.writeVector(g + "/n", ns);
+      for (const auto& [name, v] : cols) h5.writeVector(g + "/" + name, v);
+    }
+    // abi's own figures: counted rate, share of dgemm's rate, the memory floor, 2 threads, M⁻¹R.
+    std::printf("\n%s, abi: %6s %9s %7s %9s %8s %10s\n", T.c_str(), "n", "GF/s", "%dgemm",
+                "abi/store", "2thr", "solve8:lap");
+    std::vector<double> ns, cols[5];
+    for (int n : sizes) {
       const std::string N = std::to_string(n);
-      const double abi = med("inverse/" + T + "/abi/" + N);
+      const double abi = time("abi", n);
       if (abi == 0) continue;
-      auto ratio = [&](const std::string& s) {
-        const double x = med("inverse/" + T + "/" + s + "/" + N);
-        return x > 0 ? x / abi : 0.0;
-      };
       const double gflops = abiFlops(t, n) / abi * 1e-9;
       const double dg = med("dgemm/" + N);
       const double dgemm_rate = dg > 0 ? 2.0 * n * n * n / dg * 1e-9 : 0;
@@ -255,22 +291,25 @@ void report(bool full, const std::string& out) {
       const double thr2 = med("inverse/" + T + "/abi@2/" + N);
       const double s8 = med("solve/" + T + "/abi/" + N + "/8");
       const double l8 = med("solve/" + T + "/lapack/" + N + "/8");
-      const double row[10] = {abi * 1e6, ratio("lapack"), ratio("eigen"), ratio("ltdl"),
-                              ratio("mujoco"), gflops,
-                              dgemm_rate > 0 ? 100 * gflops / dgemm_rate : 0,
-                              store > 0 ? abi / store : 0, thr2 > 0 ? abi / thr2 : 0,
-                              s8 > 0 ? l8 / s8 : 0};
-      std::printf("%6d %10.1f %8.2f %8.2f %8.2f %8.2f %9.2f %7.1f %8.2f %8.2f %9.1f\n", n, row[0],
-                  row[1], row[2], row[3], row[4], row[5], row[6], row[7], row[8], row[9]);
+      const double row[5] = {gflops, dgemm_rate > 0 ? 100 * gflops / dgemm_rate : 0,
+                             store > 0 ? abi / store : 0, thr2 > 0 ? abi / thr2 : 0,
+                             s8 > 0 ? l8 / s8 : 0};
+      std::printf("%*s %6d %9.2f %7.1f %9.2f %8.2f %10.1f\n", static_cast<int>(T.size() + 5), "",
+                  n, row[0], row[1], row[2], row[3], row[4]);
       ns.push_back(n);
-      for (int c = 0; c < 10; ++c) cols[c].push_back(row[c]);
+      for (int c = 0; c < 5; ++c) cols[c].push_back(row[c]);
     }
-    const char* names[10] = {"abi_us", "lapack_over_abi", "eigen_over_abi", "ltdl_over_abi",
-                              "mujoco_over_abi", "abi_gflops", "abi_percent_of_dgemm",
-                              "abi_over_store", "abi_2thread_speedup", "lapack_over_abi_solve8"};
-    h5.writeVector("ratios/" + T + "/n", ns);
-    for (int c = 0; c < 10; ++c) h5.writeVector("ratios/" + T + "/" + names[c], cols[c]);
-    std::printf("(0.00 = not measured at that n)\n");
+    const char* names[5] = {"abi_gflops", "abi_percent_of_dgemm", "abi_over_store",
+                            "abi_2thread_speedup", "lapack_over_abi_solve8"};
+    h5.writeVector("abi/" + T + "/n", ns);
+    for (int c = 0; c < 5; ++c) h5.writeVector("abi/" + T + "/" + names[c], cols[c]);
+    // Why a peer has no point at some n: the skip table's reasons.
+    for (const std::string& s : others)
+      for (int n : sizes)
+        if (auto why = skipReason(s, "perf", T, n, full ? "full" : "quick")) {
+          if (file) file->setAttribute("ratios/" + T, "skipped_" + s, *why);
+          break;
+        }
   }
   // Where abi's time goes on the serial chain (one thread).
   std::printf("\nserial, abi's parts (one thread), medians in us: inverse = sweeps + writes "

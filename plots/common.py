@@ -52,8 +52,26 @@ def poly_formula(coeffs, var="n"):
     return out[2:] if out.startswith("+ ") else "−" + out[2:]
 
 
-def provenance_line(f):
+PROVENANCE_KEYS = ("git_sha", "cpu_model", "cpu_signature", "cpu_extensions", "build_isa",
+                   "compiler", "blas_library", "date_utc")
+
+
+def cpu_name(f):
+    """The CPU a result file was measured on, as precisely as its provenance tells it."""
     a = f.attrs
-    keys = ("git_sha", "cpu_model", "compiler", "blas", "date")
+
+    def get(k):
+        v = a.get(k)
+        return v.decode() if isinstance(v, bytes) else v
+    name = get("cpu_model") or "unknown CPU"
+    if get("cpu_signature"):
+        name += f" ({get('cpu_vendor') or ''} {get('cpu_signature')}; {get('cpu_extensions')})"
+    return name
+
+
+def provenance_line(f):
+    """The result file's provenance in one line: commit, CPU, compiler, BLAS, date (the writer's
+    attribute names, experiments/lib/provenance.hpp)."""
+    a = f.attrs
     return ", ".join(f"{k}={a[k].decode() if isinstance(a[k], bytes) else a[k]}"
-                     for k in keys if k in a)
+                     for k in PROVENANCE_KEYS if k in a)

@@ -1,18 +1,28 @@
-"""Issue 7's performance section: abi against the field, from results/perf.h5 (written by
-build/bench_abi). Writes paper/PERFORMANCE.md and paper/figures/perf_ratios.png/.pdf."""
+"""The performance section: abi against every peer in the registry, from results/perf.h5
+(written by build/bench_abi). Writes paper/PERFORMANCE.md, paper/figures/perf_ratios.png/.pdf
+and the figure of the Θ(n²) implementations, paper/figures/theta_n2.png/.pdf.
+
+Layout read (bench_abi's report()): runs/<benchmark>/repetitions_s with attribute median_s for
+every benchmark ("inverse/<topology>/<solver>/<n>", "solve/…/<n>/<m>", "store/<n>",
+"dgemm/<n>", "parts/serial/<part>/<n>"); ratios/<topology>/{n, abi_us, <peer>_over_abi};
+ratios/<topology>/generic/{n, abi-generic_us, <peer>_over_abi_generic}; abi/<topology>/{n,
+abi_gflops, abi_percent_of_dgemm, abi_over_store, abi_2thread_speedup, lapack_over_abi_solve8};
+parts/serial/…; attributes ratios/<topology>@skipped_<peer> (the skip table's reason)."""
 import os
 
 import h5py
 import matplotlib.pyplot as plt
 
-from common import PAPER, RESULTS, provenance_line, result_path, save
+from common import PAPER, RESULTS, cpu_name, provenance_line, result_path, save
 
-COLUMNS = [  # dataset, header, format
-    ("abi_us", "abi (µs)", "{:.1f}"),
-    ("lapack_over_abi", "lapack / abi", "{:.2f}"),
-    ("eigen_over_abi", "eigen / abi", "{:.2f}"),
-    ("ltdl_over_abi", "ltdl / abi", "{:.2f}"),
-    ("mujoco_over_abi", "mujoco / abi", "{:.2f}"),
+# The sizes of the "abi vs every peer" table.
+TABLE_N = (16, 64, 256, 1024, 2048)
+# The Θ(n²) implementations drawn in theta_n2 (those present in the file).
+THETA = (("abi", "abi (native)", "o-"), ("abi-generic", "abi (generic x86-64)", "o--"),
+         ("dart", "DART getInvMassMatrix", "s-"), ("bullet", "Bullet btMultiBody", "^-"),
+         ("mujoco", "MuJoCo sparse LᵀDL", "v-"), ("ltdl", "Featherstone LᵀDL", "d-"))
+
+ABI_COLUMNS = [  # dataset, header, format
     ("abi_gflops", "abi GFLOP/s (counted)", "{:.2f}"),
     ("abi_percent_of_dgemm", "% of dgemm", "{:.1f}"),
     ("abi_over_store", "abi / store n² doubles", "{:.2f}"),
@@ -23,6 +33,116 @@ COLUMNS = [  # dataset, header, format
 
 def cell(fmt, x):
     return "—" if x == 0 else fmt.format(x)
+
+
+def text(v):
+    return v.decode() if isinstance(v, bytes) else v
+
+
+def median(f, name):
+    """The median (s) of one benchmark, or 0 if it was not run."""
+    g = f.get("runs/" + name)
+    return float(g.attrs["median_s"]) if g is not None else 0.0
+
+
+def peers_of(f, topo):
+    """The peers of the ratio table, in the file's order (abi's own column excluded)."""
+    g = f["ratios"][topo]
+    return [k[: -len("_over_abi")] for k in g.keys() if k.endswith("_over_abi")]
+
+
+def ratio_table(f, topo, generic):
+    """Markdown: every n of the run, peer time / abi time (or / abi-generic time)."""
+    g = f["ratios"][topo]["generic"] if generic else f["ratios"][topo]
+    suffix = "_over_abi_generic" if generic else "_over_abi"
+    base = "abi-generic" if generic else "abi"
+    peers = [k[: -len(suffix)] for k in g.keys() if k.endswith(suffix)]
+    lines = [f"| n | {base} (µs) | " + " | ".join(f"{p} / {base}" for p in peers) + " |",
+             "|---" * (len(peers) + 2) + "|"]
+    for i, nv in enumerate(g["n"][()]):
+        lines.append(f"| {int(nv)} | {g[base + '_us'][()][i]:.1f} | " +
+                     " | ".join(cell("{:.2f}", g[p + suffix][()][i]) for p in peers) + " |")
+    return lines
+
+
+def versus_table(f, topo, mode):
+    """Markdown: abi against every peer at TABLE_N, both ways: peer / abi native and
+    peer / abi generic (abi built for generic x86-64, like Debian's prebuilt peers)."""
+    lines = ["| peer | " + " | ".join(f"n = {n}" for n in TABLE_N) + " |",
+             "|---" * (len(TABLE_N) + 1) + "|"]
+    for p in peers_of(f, topo):
+        if p == "abi-generic":
+            continue
+        cells = []
+        for n in TABLE_N:
+            t, a = median(f, f"inverse/{topo}/{p}/{n}"), median(f, f"inverse/{topo}/abi/{n}")
+            ag = median(f, f"inverse/{topo}/abi-generic/{n}")
+            if t == 0 or a == 0:
+                cells.append("—")
+            else:
+                cells.append(f"{t / a:.2f}× / {t / ag:.2f}×" if ag > 0 else f"{t / a:.2f}×")
+        lines.append(f"| {p} | " + " | ".join(cells) + " |")
+    skipped = [f"`{p}`: {text(v)}" for k, v in f["ratios"][topo].attrs.items()
+               for p in [k[len("skipped_"):]] if k.startswith("skipped_")]
+    if skipped:
+        lines += ["", f"— = not measured in this {mode} run; from the skip table "
+                  "(experiments/lib/budget.cpp): " + "; ".join(skipped) + "."]
+    return lines
+
+
+def abi_table(f, topo):
+    g = f["abi"][topo]
+    lines = ["| n | " + " | ".join(h for _, h, _ in ABI_COLUMNS) + " |",
+             "|---" * (len(ABI_COLUMNS) + 1) + "|"]
+    for i, nv in enumerate(g["n"][()]):
+        lines.append(f"| {int(nv)} | " +
+                     " | ".join(cell(fmt, g[d][()][i]) for d, _, fmt in ABI_COLUMNS) + " |")
+    return lines
+
+
+def theta_figure(f, cpu):
+    """Time of M⁻¹ (configure + inverse) against n for the Θ(n²) implementations."""
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.4), sharey=True)
+    for ax, topo in zip(axes, ("serial", "branched")):
+        for solver, label, style in THETA:
+            ns, ts = [], []
+            for n in (8, 16, 32, 64, 128, 256, 512, 1024, 2048):
+                t = median(f, f"inverse/{topo}/{solver}/{n}")
+                if t > 0:
+                    ns.append(n)
+                    ts.append(t)
+            if ns:
+                ax.plot(ns, ts, style, label=label, ms=4)
+        ax.set(xscale="log", yscale="log", xlabel="n (links)", title=f"{topo} trees")
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0].set_ylabel("seconds per M⁻¹ (configure + inverse), one core")
+    axes[0].legend(fontsize=7)
+    fig.suptitle(f"Θ(n²) implementations of M⁻¹ — {cpu}", fontsize=9)
+    save(fig, "theta_n2")
+
+
+def ratios_figure(f):
+    fig, ax = plt.subplots(1, 2, figsize=(11, 4.2))
+    for topo in ("serial", "branched"):
+        g = f["ratios"][topo]
+        n = g["n"][()]
+        for p in peers_of(f, topo):
+            y = g[p + "_over_abi"][()]
+            keep = y > 0
+            if keep.any():
+                ax[0].plot(n[keep], y[keep], "o-" if topo == "serial" else "s--",
+                           label=f"{p}, {topo}", ms=3)
+        a = f["abi"][topo]
+        ax[1].plot(a["n"][()], a["abi_gflops"][()], "o-", label=f"abi GFLOP/s, {topo}")
+    ax[0].axhline(1, color="gray", lw=0.8)
+    ax[0].set(xscale="log", yscale="log", xlabel="n", ylabel="peer time / abi time",
+              title="M⁻¹ pipeline: how much faster abi is")
+    ax[0].legend(fontsize=6, ncol=2)
+    ax[1].set(xscale="log", xlabel="n", ylabel="GFLOP/s", title="abi's counted flop rate")
+    ax[1].legend(fontsize=7)
+    for a in ax:
+        a.grid(True, which="both", alpha=0.3)
+    save(fig, "perf_ratios")
 
 
 PARTS = [  # dataset, header
@@ -74,64 +194,62 @@ def memory_section():
             "the scratch is O(n·W)."]
 
 
-def machine_section(f):
-    """The machine and build the figures above come from, from the result file's provenance."""
+def machine_lines(f):
+    """The machine and build the figures come from, from the result file's provenance."""
     a = f.attrs
 
     def get(k):
-        v = a.get(k, "?")
-        return v.decode() if isinstance(v, bytes) else v
-    return ["", "## The machine", "",
-            f"- CPU: {get('cpu_model')}, {get('cpu_cores')} cores (host {get('hostname')})",
-            f"- compiler: {get('compiler')}, flags `{get('build_flags')}`",
+        return text(a.get(k, "?"))
+    return [f"- CPU: {get('cpu_model')}, {get('cpu_cores')} cores (host {get('hostname')})",
+            f"- compiler: {get('compiler')}, flags `{get('build_flags')}`; `abi-generic` is "
+            "the same source compiled with `-march=x86-64` (SSE2), as Debian compiled DART, "
+            "Bullet and MuJoCo",
             f"- BLAS: {get('blas_library')}, {get('blas_threads')} thread(s); OpenMP up to "
             f"{get('omp_max_threads')} threads (abi's two-thread runs only)",
             f"- run: git {get('git_sha')}, {get('date_utc')}, mode {get('mode')}"]
 
 
+def versus_section(f):
+    """The "abi vs every peer" section (also pasted into REPORT.md by plots/report.py)."""
+    mode = text(f.attrs.get("mode", "?"))
+    cpu = cpu_name(f)
+    lines = ["## abi against every peer", "",
+             f"Machine: {cpu}. Medians of 5 interleaved repetitions in one run, one core, the "
+             "pipeline from q to M⁻¹ (configure + inverse). Each cell is peer time / abi time "
+             "with abi built for this CPU (`-march=native`), then / abi built for generic "
+             "x86-64 like the peers' Debian packages; > 1 means abi is faster.", ""]
+    for topo in ("serial", "branched"):
+        lines += [f"### {topo} trees", ""] + versus_table(f, topo, mode) + [""]
+    lines.append("![Θ(n²) implementations](figures/theta_n2.png)")
+    return lines
+
+
 def main():
     with h5py.File(result_path("perf.h5"), "r") as f:
-        lines = ["# Performance of `abi` (issue 7)", "",
+        cpu = cpu_name(f)
+        lines = ["# Performance of `abi`", "",
                  f"Generated by `plots/perf.py` from `results/perf.h5` ({provenance_line(f)}, "
-                 f"mode {f.attrs.get('mode', '?')}).", "",
-                 "Google Benchmark medians of 5 repetitions, each the pipeline from a "
+                 f"mode {text(f.attrs.get('mode', '?'))}). Every figure below was measured on "
+                 "this machine:", ""] + machine_lines(f) + [
+                 "", "Google Benchmark medians of 5 repetitions, each the pipeline from a "
                  "configuration q to M⁻¹ (configure + inverse), single thread and BLAS threads 1 "
                  "unless stated. Ratios are peer time / abi time measured side by side in one "
                  "run; > 1 means abi is faster. GFLOP/s counts abi's own operations on the "
                  "counting scalar; '% of dgemm' divides by OpenBLAS dgemm's rate at the same n on "
                  "the same core; 'abi / store' is abi's time over the time to write n² doubles "
-                 "(the memory floor). — = not measured at that n (see experiments/bench_abi.cpp "
-                 "for which peers stop early and why).", ""]
-        fig, ax = plt.subplots(1, 2, figsize=(11, 4.2))
+                 "(the memory floor). — = not measured at that n (the skip table, "
+                 "experiments/lib/budget.cpp, gives each reason).", ""]
+        lines += versus_section(f) + [""]
+        theta_figure(f, cpu)
         for topo in ("serial", "branched"):
-            g = f["ratios"][topo]
-            n = g["n"][()]
-            lines += [f"## {topo}", "",
-                      "| n | " + " | ".join(h for _, h, _ in COLUMNS) + " |",
-                      "|---" * (len(COLUMNS) + 1) + "|"]
-            for i, nv in enumerate(n):
-                lines.append(f"| {int(nv)} | " + " | ".join(
-                    cell(fmt, g[d][()][i]) for d, _, fmt in COLUMNS) + " |")
-            lines.append("")
-            for d, label in (("lapack_over_abi", "lapack"), ("eigen_over_abi", "eigen"),
-                             ("ltdl_over_abi", "ltdl"), ("mujoco_over_abi", "mujoco")):
-                y = g[d][()]
-                keep = y > 0
-                ax[0].plot(n[keep], y[keep], "o-" if topo == "serial" else "s--",
-                           label=f"{label}, {topo}")
-            ax[1].plot(n, g["abi_gflops"][()], "o-", label=f"abi GFLOP/s, {topo}")
-        ax[0].axhline(1, color="gray", lw=0.8)
-        ax[0].set(xscale="log", yscale="log", xlabel="n", ylabel="peer time / abi time",
-                  title="M⁻¹ pipeline: how much faster abi is")
-        ax[0].legend(fontsize=7)
-        ax[1].set(xscale="log", xlabel="n", ylabel="GFLOP/s", title="abi's counted flop rate")
-        ax[1].legend(fontsize=7)
-        for a in ax:
-            a.grid(True, which="both", alpha=0.3)
-        save(fig, "perf_ratios")
+            lines += [f"## {topo}: every peer, every n", ""] + ratio_table(f, topo, False) + [""]
+            if "generic" in f["ratios"][topo]:
+                lines += [f"Against abi built for generic x86-64 ({topo}):", ""]
+                lines += ratio_table(f, topo, True) + [""]
+            lines += [f"abi's own figures ({topo}):", ""] + abi_table(f, topo) + [""]
+        ratios_figure(f)
         lines.append("![ratios](figures/perf_ratios.png)")
         lines += parts_section(f)
-        lines += machine_section(f)
     lines += memory_section()
     with open(os.path.join(PAPER, "PERFORMANCE.md"), "w") as out:
         out.write("\n".join(lines) + "\n")

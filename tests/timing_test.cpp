@@ -112,23 +112,45 @@ TEST(Timing, QuickSweepCoversTheIssue) {
   EXPECT_THROW(timingSweep("medium"), std::invalid_argument);
 }
 
-TEST(Timing, SkipTableIsData) {
-  // abi and lapack are never skipped; every rule's reason reaches the point.
-  for (int n : {8, 1024, 4096}) {
-    EXPECT_FALSE(skipReason("abi", "pipeline", "serial", n, "full"));
-    EXPECT_FALSE(skipReason("lapack", "kernel", "branched", n, "full"));
+// The skip table (experiments/lib/budget.cpp) as data that can be wrong: every rule must name a
+// solver that can be registered, a known family and topology, caps with quick ≤ full, a reason,
+// and must be reachable (no earlier rule matches everything it matches, which would make it
+// dead). A reason reaches the point with the mode's cap.
+TEST(Timing, SkipTableIsConsistent) {
+  const std::vector<std::string> names = solverNames();
+  std::set<std::string> solvers(names.begin(), names.end());
+  for (const char* optional : {"mujoco", "dart", "bullet"}) solvers.insert(optional);
+  const std::set<std::string> families = {"*", "pipeline", "kernel", "threads", "accuracy", "perf"};
+  const std::set<std::string> topologies = {"*", "serial", "branched"};
+  auto covers = [](const char* a, const char* b) {
+    return std::string(a) == "*" || std::string(a) == b;
+  };
+  const std::vector<SkipRule>& rules = skipRules();
+  for (std::size_t j = 0; j < rules.size(); ++j) {
+    const SkipRule& r = rules[j];
+    EXPECT_TRUE(std::string(r.solver) == "*" || solvers.count(r.solver)) << r.solver;
+    EXPECT_TRUE(families.count(r.family)) << r.family;
+    EXPECT_TRUE(topologies.count(r.topology)) << r.topology;
+    EXPECT_LE(r.quick_max_n, r.full_max_n) << r.solver;
+    EXPECT_GT(std::string(r.reason).size(), 10u) << r.solver;
+    for (std::size_t i = 0; i < j; ++i)
+      EXPECT_FALSE(covers(rules[i].solver, r.solver) && covers(rules[i].family, r.family) &&
+                   covers(rules[i].topology, r.topology))
+          << "rule " << j << " (" << r.solver << ", " << r.family << ", " << r.topology
+          << ") is dead: rule " << i << " matches everything it matches";
   }
-  EXPECT_FALSE(skipReason("mujoco", "pipeline", "serial", 256, "quick"));
-  const auto r = skipReason("mujoco", "pipeline", "serial", 362, "quick");
-  ASSERT_TRUE(r);
-  EXPECT_NE(r->find("mj_setConst"), std::string::npos);
-  EXPECT_NE(r->find("n = 256"), std::string::npos);
-  EXPECT_TRUE(skipReason("mujoco", "accuracy", "serial", 1024, "quick"));
-  EXPECT_FALSE(skipReason("mujoco", "accuracy", "serial", 512, "quick"));
-  for (const SkipRule& rule : skipRules()) {
-    EXPECT_GT(std::string(rule.reason).size(), 10u);
-    EXPECT_LE(rule.quick_max_n, rule.full_max_n);
+  // The first matching rule decides, and its cap and reason reach the point.
+  for (const SkipRule& r : rules) {
+    if (std::string(r.solver) == "*" || std::string(r.family) == "*") continue;
+    const std::string topo = std::string(r.topology) == "*" ? "serial" : r.topology;
+    EXPECT_FALSE(skipReason(r.solver, r.family, topo, r.quick_max_n, "quick"));
+    const auto why = skipReason(r.solver, r.family, topo, r.quick_max_n + 1, "quick");
+    ASSERT_TRUE(why) << r.solver;
+    EXPECT_NE(why->find(r.reason), std::string::npos);
+    EXPECT_NE(why->find("at n = " + std::to_string(r.quick_max_n)), std::string::npos) << *why;
   }
+  // A solver without a rule is never skipped.
+  EXPECT_FALSE(skipReason("abi", "pipeline", "serial", 4096, "full"));
 }
 
 TEST(Timing, LogSpaced) {

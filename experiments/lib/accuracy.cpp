@@ -15,7 +15,7 @@
 #include "core/kinematics.hpp"
 #include "experiments/lib/h5writer.hpp"
 #include "experiments/lib/provenance.hpp"
-#include "experiments/lib/timing.hpp"
+#include "experiments/lib/budget.hpp"
 #include "generators/random_tree.hpp"
 #include "solvers/solver.hpp"
 

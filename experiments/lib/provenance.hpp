@@ -6,6 +6,12 @@
 //   build_flags      optimisation and target flags (MINV_BUILD_FLAGS)
 //   minv_version     the project version (MINV_VERSION, else the version below)
 //   cpu_model        /proc/cpuinfo "model name" ("unknown" if absent)
+//   cpu_vendor       CPUID's vendor string ("AuthenticAMD", "GenuineIntel")
+//   cpu_signature    CPUID's family, model and stepping, with AMD's microarchitecture where
+//                    they tell it ("family 0x19 model 0x11 stepping 1 (Zen 4)")
+//   cpu_extensions   the vector extensions present ("sse4.2 avx fma avx2 avx512f …")
+//   build_isa        the widest extension minv's own code was compiled for ("avx512f",
+//                    "avx2+fma", … "sse2 (x86-64 baseline)")
 //   cpu_cores        std::thread::hardware_concurrency()
 //   blas_library     openblas_get_config() ("OpenBLAS 0.3.21 DYNAMIC_ARCH …")
 //   blas_threads     openblas_get_num_threads()
@@ -22,8 +28,8 @@
 namespace minv {
 
 struct Provenance {
-  std::string git_sha, compiler, build_flags, minv_version, cpu_model, blas_library, date_utc,
-      hostname;
+  std::string git_sha, compiler, build_flags, minv_version, cpu_model, cpu_vendor, cpu_signature,
+      cpu_extensions, build_isa, blas_library, date_utc, hostname;
   int cpu_cores = 0, blas_threads = 0, omp_max_threads = 0;
 };
 

@@ -105,59 +105,6 @@ std::vector<TimingPoint> shardPoints(const std::vector<TimingPoint>& points, Sha
   return out;
 }
 
-// THE skip table. Caps are on n (links); the reasons go into the result files.
-const std::vector<SkipRule>& skipRules() {
-  static const std::vector<SkipRule> rules = {
-      // The accuracy sweep runs each solver once per tree: it affords larger n.
-      {"naive", "accuracy", "*", 1024, 2048,
-       "textbook triple-loop Cholesky: Θ(n³) without blocking, too slow for this mode's budget"},
-      {"ltl", "accuracy", "*", 1024, 2048,
-       "Featherstone LᵀL: unblocked, tens of seconds at n = 2048 here, too slow for this mode's "
-       "budget"},
-      {"ltdl", "accuracy", "*", 1024, 2048,
-       "Featherstone LᵀDL: unblocked, tens of seconds at n = 2048 here, too slow for this mode's "
-       "budget"},
-      {"naive", "*", "*", 512, 2048,
-       "textbook triple-loop Cholesky: Θ(n³) without blocking, too slow for this mode's budget"},
-      {"ltl", "*", "serial", 512, 2048,
-       "branch-induced sparsity is dense on a serial chain: unblocked Θ(n³), too slow for this "
-       "mode's budget"},
-      {"ltdl", "*", "serial", 512, 2048,
-       "branch-induced sparsity is dense on a serial chain: unblocked Θ(n³), too slow for this "
-       "mode's budget"},
-      {"ltl", "*", "branched", 768, 2048,
-       "sparse inverse of the branched tree takes seconds at n = 1024 here: too slow for this "
-       "mode's budget"},
-      {"ltdl", "*", "branched", 768, 2048,
-       "sparse inverse of the branched tree takes seconds at n = 1024 here: too slow for this "
-       "mode's budget"},
-      {"mujoco", "accuracy", "*", 512, 1024,
-       "MuJoCo's prepare() (mj_setConst) is Θ(n³) per tree: 11 s at n = 1000"},
-      {"mujoco", "*", "*", 256, 1024,
-       "MuJoCo's prepare() (mj_setConst) is Θ(n³) per tree, run once per point: 11 s at n = 1000"},
-  };
-  return rules;
-}
-
-std::optional<std::string> skipReason(const std::string& solver, const std::string& family,
-                                      const std::string& topology, int n,
-                                      const std::string& mode) {
-  auto match = [](const char* rule, const std::string& v) {
-    return std::string(rule) == "*" || v == rule;
-  };
-  for (const SkipRule& r : skipRules()) {
-    if (!match(r.solver, solver) || !match(r.family, family) || !match(r.topology, topology))
-      continue;
-    // The first matching rule decides.
-    const int cap = mode == "full" ? r.full_max_n : r.quick_max_n;
-    if (n > cap)
-      return std::string(r.reason) + " (" + mode + " mode caps " + solver + " at n = " +
-             std::to_string(cap) + ")";
-    return std::nullopt;
-  }
-  return std::nullopt;
-}
-
 namespace {
 
 Eigen::MatrixXd randomMatrix(int rows, int cols, std::uint64_t seed) {

@@ -41,6 +41,8 @@
 #include <string>
 #include <vector>
 
+#include "experiments/lib/budget.hpp"
+
 namespace minv {
 
 struct TimingPoint {
@@ -86,21 +88,6 @@ struct Shard {
 };
 Shard parseShard(const std::string& text);  // "i/N", 0 ≤ i < N; else std::invalid_argument
 std::vector<TimingPoint> shardPoints(const std::vector<TimingPoint>& points, Shard shard);
-
-// The skip rules, as data: a point whose solver/family/topology match a rule and whose n
-// exceeds the rule's cap for the sweep's mode is not measured; its group records `skipped`
-// with the rule's reason. "*" matches anything. The accuracy sweep uses family "accuracy".
-struct SkipRule {
-  const char* solver;
-  const char* family;
-  const char* topology;
-  int quick_max_n, full_max_n;  // tiny uses quick's caps
-  const char* reason;
-};
-const std::vector<SkipRule>& skipRules();
-std::optional<std::string> skipReason(const std::string& solver, const std::string& family,
-                                      const std::string& topology, int n,
-                                      const std::string& mode);
 
 // Raw repetitions of one point: seconds per iteration, per repetition.
 struct Measurement {
