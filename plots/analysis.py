@@ -15,6 +15,8 @@ STYLE = {  # colour, line width, marker
     "abi": ("tab:red", 2.2, "o"), "lapack": ("tab:blue", 2.2, "s"), "ltl": ("tab:green", 2.0, "^"),
     "ltdl": ("tab:olive", 1.0, "v"), "naive": ("tab:gray", 1.0, "x"),
     "eigen": ("tab:purple", 1.0, "d"), "mujoco": ("tab:orange", 1.0, "P"),
+    "abi-generic": ("salmon", 1.4, "o"), "dart": ("tab:brown", 1.4, "D"),
+    "bullet": ("tab:cyan", 1.4, "*"),
 }
 PAPER_CROSSOVER = 130
 PAPER_SPEEDUP = {2: 1.34, 4: 2.17}

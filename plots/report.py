@@ -11,7 +11,10 @@ from analysis import (EXPONENT_MIN_N, PAPER_CROSSOVER, PAPER_SPEEDUP, crossover,
                       load_accuracy, load_timing, series, skipped, speedups)
 from common import FIGURES, PAPER, RESULTS
 
-PAPER_EXPONENT = {"abi": 2, "lapack": 3, "ltl": 3, "ltdl": 3, "naive": 3, "eigen": 3, "mujoco": 3}
+PAPER_EXPONENT = {"abi": 2, "abi-generic": 2, "lapack": 3, "ltl": 3, "ltdl": 3, "naive": 3,
+                  "eigen": 3, "mujoco": 3, "dart": 2, "bullet": 2}
+# The field's other Θ(n²) implementations of M⁻¹ (issue 12), set against abi from perf.h5.
+THETA_PEERS = ("dart", "bullet")
 
 
 def pct(s):
@@ -27,7 +30,8 @@ def figure(lines, name, caption):
 
 
 def machine(lines, root, title):
-    keys = ["cpu_model", "cpu_cores", "hostname", "compiler", "build_flags", "blas_library",
+    keys = ["cpu_model", "cpu_vendor", "cpu_signature", "cpu_extensions", "build_isa",
+            "cpu_cores", "hostname", "compiler", "build_flags", "blas_library",
             "blas_threads", "omp_max_threads", "git_sha", "date_utc", "mode", "seed",
             "min_time_s", "repetitions", "timer", "reference"]
     lines += [f"**{title}**", "", "| attribute | value |", "| --- | --- |"]
@@ -77,6 +81,26 @@ def main():
                     claims.append((f"time exponent, {s}, {topo}, fixed base (fit over n = {lo}–{hi})",
                                    str(PAPER_EXPONENT[s]) + (" (Θ(n²))" if s == "abi" else " (O(n³))"),
                                    f"{e:.2f}"))
+
+    have_perf = os.path.exists(os.path.join(RESULTS, "perf.h5"))
+    if have_perf:
+        import h5py
+        from perf import median
+        with h5py.File(os.path.join(RESULTS, "perf.h5"), "r") as f:
+            for topo in ("serial", "branched"):
+                cells = []
+                for peer in THETA_PEERS:
+                    for n in (64, 256, 1024):
+                        t, a = median(f, f"inverse/{topo}/{peer}/{n}"), median(f, f"inverse/{topo}/abi/{n}")
+                        ag = median(f, f"inverse/{topo}/abi-generic/{n}")
+                        if t > 0 and a > 0:
+                            gen = f", {t / ag:.1f}× generic" if ag > 0 else ""
+                            cells.append(f"{peer} n = {n}: {t / a:.1f}×{gen}")
+                if cells:
+                    claims.append((f"Θ(n²) method vs other Θ(n²) implementations (DART's "
+                                   f"getInvMassMatrix, Bullet's btMultiBody), {topo} chain, "
+                                   "peer time / abi time (results/perf.h5)",
+                                   "— (the paper compares only with Cholesky)", "; ".join(cells)))
 
     lines += ["## The paper's claims beside ours", "",
               "| claim | paper | measured here |", "| --- | --- | --- |"]
@@ -164,6 +188,12 @@ def main():
         figure(lines, "figure4_centipede", "Figure 4: centipede, time per step vs legs")
         figure(lines, "walk_path", "The walk seen from above (results/walk.h5); "
                "an animation is in figures/walk.gif")
+    if have_perf:
+        import h5py
+        from perf import versus_section
+        with h5py.File(os.path.join(RESULTS, "perf.h5"), "r") as f:
+            lines += versus_section(f)
+        lines.append("")
     if os.path.exists(os.path.join(PAPER, "PERFORMANCE.md")):
         lines += ["## Beyond the paper: making `abi` fast", "",
                   "SIMD across columns, symmetry, threads: [PERFORMANCE.md](PERFORMANCE.md) "
@@ -172,7 +202,7 @@ def main():
 
     if have_timing:
         lines += ["## What was skipped, and why", "",
-                  "Skips come from one table (`skipRules()` in `experiments/lib/timing.cpp`) "
+                  "Skips come from one table (`skipRules()` in `experiments/lib/budget.cpp`) "
                   "and are recorded in each skipped point's `skipped` attribute.", ""]
         sk = skipped(points)
         if have_acc:
