@@ -2,10 +2,20 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <initializer_list>
+#include <map>
 
 namespace minv {
+
+std::string formatNumber(double x) {
+  if (std::isnan(x)) return "nan";
+  if (std::isinf(x)) return x > 0 ? "inf" : "-inf";
+  char buf[32];
+  const auto r = std::to_chars(buf, buf + sizeof buf, x);
+  return std::string(buf, r.ptr);
+}
 
 int jointNv(JointType t) {
   switch (t) {
@@ -53,12 +63,28 @@ std::string where(int i, const std::string& name) {
   return "body " + std::to_string(i) + (name.empty() ? "" : " ('" + name + "')");
 }
 
+// The first entry of m beyond kMaxPhysicalMagnitude, as a message, or "".
+std::string outOfRange(const auto& m, const std::string& what) {
+  for (Eigen::Index k = 0; k < m.size(); ++k)
+    if (std::abs(m.data()[k]) > kMaxPhysicalMagnitude)
+      return what + " " + formatNumber(m.data()[k]) + " is beyond ±" +
+             formatNumber(kMaxPhysicalMagnitude) + ", the range minv's kernels keep finite";
+  return "";
+}
+
 void checkBody(int i, const Body& b) {
   const std::string at = where(i, b.name);
   if (!std::isfinite(b.mass) || b.mass <= 0)
-    throw ModelError(at + ": mass must be positive and finite, got " + std::to_string(b.mass));
+    throw ModelError(at + ": mass must be positive and finite, got " + formatNumber(b.mass));
+  if (b.mass > kMaxPhysicalMagnitude)
+    throw ModelError(at + ": mass " + formatNumber(b.mass) + " is beyond " +
+                     formatNumber(kMaxPhysicalMagnitude) + ", the range minv's kernels keep finite");
   if (!finite(b.com)) throw ModelError(at + ": centre of mass is not finite");
   if (!finite(b.inertia)) throw ModelError(at + ": rotational inertia is not finite");
+  if (const std::string e = outOfRange(b.com, "centre of mass coordinate"); !e.empty())
+    throw ModelError(at + ": " + e);
+  if (const std::string e = outOfRange(b.inertia, "rotational inertia entry"); !e.empty())
+    throw ModelError(at + ": " + e);
   const Eigen::Matrix3d& J = b.inertia;
   const double scale = J.cwiseAbs().maxCoeff();
   if ((J - J.transpose()).cwiseAbs().maxCoeff() > 1e-9 * std::max(scale, 1e-300))
@@ -67,27 +93,38 @@ void checkBody(int i, const Body& b) {
   const Eigen::Vector3d e = es.eigenvalues();  // ascending
   if (!(e(0) > 0))
     throw ModelError(at + ": rotational inertia is not positive definite (smallest eigenvalue " +
-                     std::to_string(e(0)) + ")");
+                     formatNumber(e(0)) + ")");
   if (e(0) + e(1) < e(2) * (1 - 1e-9))
     throw ModelError(at + ": rotational inertia breaks the triangle inequality (principal " +
-                     "moments " + std::to_string(e(0)) + ", " + std::to_string(e(1)) + ", " +
-                     std::to_string(e(2)) + ")");
+                     "moments " + formatNumber(e(0)) + ", " + formatNumber(e(1)) + ", " +
+                     formatNumber(e(2)) + ")");
 }
 
 void checkJoint(int i, Joint& j, int parent) {
   const std::string at = "joint of " + where(i, j.name);
   if (j.type == JointType::Revolute || j.type == JointType::Prismatic) {
     if (!finite(j.axis)) throw ModelError(at + ": joint axis is not finite");
-    const double n = j.axis.norm();
+    // The axis is a direction: where its norm would overflow or underflow it is taken from the
+    // axis scaled by its largest entry, so an axis of (1e308, 1e308, 0) is the unit axis it names.
+    const double big = j.axis.cwiseAbs().maxCoeff();
+    const Eigen::Vector3d d = j.axis / (big > 0 ? big : 1.0);
+    double n = j.axis.norm();
+    const bool extreme = !std::isfinite(n) || n < 1e-150;
+    if (extreme) n = d.norm() * big;
     if (n < 1e-12) throw ModelError(at + ": joint axis is zero");
     // Normalise, but keep an axis that is already unit to rounding, so that reading a written
     // model reproduces it bit for bit.
-    if (std::abs(n - 1) > 4e-16) j.axis /= n;
+    if (extreme)
+      j.axis = d / d.norm();
+    else if (std::abs(n - 1) > 4e-16)
+      j.axis /= n;
   }
   if (j.type == JointType::Floating && parent != -1)
     throw ModelError(at + ": a floating joint must attach a root body to the world");
   if (!finite(j.placement.R) || !finite(j.placement.p))
     throw ModelError(at + ": joint placement is not finite");
+  if (const std::string e = outOfRange(j.placement.p, "placement translation"); !e.empty())
+    throw ModelError(at + ": " + e);
   const Eigen::Matrix3d& R = j.placement.R;
   if ((R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > 1e-9 ||
       R.determinant() < 0)
@@ -134,6 +171,19 @@ Model Model::create(std::vector<int> parent, std::vector<Joint> joints, std::vec
     if (joints[i].type == JointType::Floating && parent[i] == -1)
       throw ModelError("joint of " + where(i, joints[i].name) +
                        ": only body 0 may carry a floating joint");
+  // Names are how users map DOFs and configurations: two bodies, or two joints, may not share
+  // one (empty names are allowed and numbered).
+  std::map<std::string, int> body_at, joint_at;
+  for (int i = 0; i < nb; ++i) {
+    const std::string& b = bodies[i].name;
+    if (!b.empty() && !body_at.emplace(b, i).second)
+      throw ModelError(where(i, b) + ": the body name '" + b + "' is already used by body " +
+                       std::to_string(body_at[b]));
+    const std::string& j = joints[i].name;
+    if (!j.empty() && !joint_at.emplace(j, i).second)
+      throw ModelError("joint of " + where(i, bodies[i].name) + ": the joint name '" + j +
+                       "' is already used by the joint of body " + std::to_string(joint_at[j]));
+  }
   m.parent_ = std::move(parent);
   m.joints_ = std::move(joints);
   m.bodies_ = std::move(bodies);

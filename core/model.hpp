@@ -30,6 +30,16 @@ struct ModelError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// A number in a message: the shortest text that reads back to the same double ("1e-09",
+// "0.30000000000000004"), and "nan", "inf" or "-inf" for the non-finite ones.
+std::string formatNumber(double x);
+
+// The largest magnitude a model's physical quantities may have: a mass, an entry of a
+// rotational inertia, a coordinate of a centre of mass or of a joint placement's translation.
+// Within it, every product minv's kernels form (m·r², sums over the tree, their squares in a
+// factorization) stays finite; beyond it a model is rejected at load, naming the place.
+inline constexpr double kMaxPhysicalMagnitude = 1e30;
+
 enum class JointType { Revolute, Prismatic, Spherical, Floating };
 
 int jointNv(JointType t);
@@ -53,7 +63,11 @@ struct Body {
 
 class Model {
  public:
-  // Validates and builds; throws ModelError naming the first problem found.
+  // Validates and builds; throws ModelError naming the first problem found: a parent after its
+  // child, a non-positive or out-of-range mass, an inertia that is not symmetric positive
+  // definite or breaks the triangle inequality, a zero or non-finite axis, a placement that is
+  // not a rigid transform, a quantity beyond kMaxPhysicalMagnitude, two bodies or two joints
+  // with the same (non-empty) name.
   static Model create(std::vector<int> parent, std::vector<Joint> joints, std::vector<Body> bodies);
 
   int nb() const { return static_cast<int>(parent_.size()); }

@@ -13,6 +13,7 @@
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <regex>
 #include <set>
 #include <sstream>
 
@@ -327,6 +328,60 @@ Model loadUrdf(const std::string& path, bool floating_base) {
   return readUrdf(readFile(path), path, floating_base);
 }
 
+namespace {
+
+// urdfdom reads a number it cannot parse ("nan", "1e999", "abc") without complaint, as 0 or
+// as NaN, so a bad mass would be reported as "got 0". Before its values are used, every number
+// minv reads from the file (the inertial's mass, inertia and origin, the joint's origin and
+// axis) is checked here, in the file's own text, and a bad one is named with its link or
+// joint. The XML itself has been accepted by urdfdom, so a scan of its tags suffices.
+void checkUrdfNumbers(const std::string& xml, const std::string& source) {
+  static const std::regex tag(R"(<(/?)([A-Za-z_][\w:.-]*)([^>]*?)(/?)>)");
+  static const std::regex attribute(R"(([A-Za-z_][\w:.-]*)\s*=\s*"([^"]*)\")");
+  std::string owner;  // "link 'b'" or "joint 'j'"
+  bool inertial = false, joint = false;
+  for (auto it = std::sregex_iterator(xml.begin(), xml.end(), tag); it != std::sregex_iterator();
+       ++it) {
+    const std::smatch& m = *it;
+    const bool closing = m[1].length() > 0, empty = m[4].length() > 0;
+    const std::string name = m[2], attrs = m[3];
+    if (name == "link" || name == "joint") {
+      if (closing) {
+        owner.clear(), joint = false;
+        continue;
+      }
+      std::string id;
+      for (auto at = std::sregex_iterator(attrs.begin(), attrs.end(), attribute);
+           at != std::sregex_iterator(); ++at)
+        if ((*at)[1] == "name") id = (*at)[2];
+      owner = name + " '" + id + "'";
+      joint = name == "joint" && !empty;
+      continue;
+    }
+    if (name == "inertial") {
+      inertial = !closing && !empty;
+      continue;
+    }
+    const bool read = (inertial && (name == "mass" || name == "inertia" || name == "origin")) ||
+                      (joint && (name == "origin" || name == "axis"));
+    if (closing || !read) continue;
+    for (auto at = std::sregex_iterator(attrs.begin(), attrs.end(), attribute);
+         at != std::sregex_iterator(); ++at) {
+      const std::string key = (*at)[1], value = (*at)[2];
+      std::istringstream tokens(value);
+      for (std::string t; tokens >> t;) {
+        char* end = nullptr;
+        const double x = std::strtod(t.c_str(), &end);
+        if (end != t.c_str() + t.size() || !std::isfinite(x))
+          throw ModelError(source + ": " + owner + ": <" + name + " " + key + "=\"" + value +
+                           "\">: '" + t + "' is not a finite number");
+      }
+    }
+  }
+}
+
+}  // namespace
+
 Model readUrdf(const std::string& xml, const std::string& source, bool floating_base) {
   // Parse with urdfdom, which rejects cycles, several roots and dangling links.
   urdf::ModelInterfaceSharedPtr u;
@@ -341,6 +396,7 @@ Model readUrdf(const std::string& xml, const std::string& source, bool floating_
       throw ModelError(source + ": not a valid URDF tree: " +
                        (capture.errors.empty() ? "rejected by urdfdom" : capture.errors));
   }
+  checkUrdfNumbers(xml, source);
   const urdf::LinkConstSharedPtr root = u->getRoot();
   // Walk the tree: each link's owning body ("" = world) and its pose in that body's frame.
   std::map<std::string, UrdfBody> bodies;

@@ -162,7 +162,8 @@ ConformanceReport checkSolver(const std::string& label, const SolverFactory& mak
 ConformanceReport checkSolver(const std::string& name, const ConformanceOptions& options) {
   const SolverEntry* e = findSolver(name);
   if (!e) makeSolver(name);  // throws with the list of known names
-  return checkSolver(name, e->make, options);
+  const SolverFactory make = e->make;  // a copy: a later registerSolver() may move the entry
+  return checkSolver(name, make, options);
 }
 
 bool ConformanceReport::passed() const {

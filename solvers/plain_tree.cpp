@@ -11,6 +11,7 @@ std::vector<PlainBody> plainTree(const Model& model) {
     p.name = b.name;
     p.joint_name = j.name;
     p.parent = model.parent(i);
+    p.mass = b.mass;
     p.joint = static_cast<PlainJoint>(static_cast<int>(j.type));
     for (int r = 0; r < 3; ++r) {
       p.axis[r] = j.axis(r);

@@ -322,15 +322,20 @@ TEST_F(CliBadInput, HugeOrNonFiniteNumber) {
   expectBadBody(b, "invalid JSON");
 }
 
-TEST_F(CliBadInput, MassMatrixOverflows) {
-  // Finite, valid bodies whose composite inertia overflows: M is not finite.
+TEST_F(CliBadInput, MassMatrixWouldOverflow) {
+  // Finite bodies whose composite inertia would overflow are caught at load, with the place
+  // (once they reached the solve as "M has non-finite entries").
   JsonBody b;
   b.mass = "1.7e308";
   b.inertia = "[[1e308, 0, 0], [0, 1e308, 0], [0, 0, 1e308]]";
   JsonBody c = b;
   c.parent = 0;
   write("bad.json", jsonModel({b, c}));
-  expectFailure("solve --model bad.json --out out.h5", "non-finite");
+  expectFailure("solve --model bad.json --out out.h5", "body 0 ('b0'): mass 1.7e+308 is beyond 1e+30");
+  JsonBody d;
+  d.inertia = "[[1e31, 0, 0], [0, 1e31, 0], [0, 0, 1e31]]";
+  write("big.json", jsonModel({d}));
+  expectFailure("solve --model big.json --out out.h5", "rotational inertia entry 1e+31");
 }
 
 TEST_F(CliBadInput, GenerateNonPositiveN) {
@@ -469,6 +474,22 @@ TEST_F(CliRoundTrip, CheckRunsTheConformanceChecks) {
   EXPECT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.out.find("conformance of lapack: PASSED"), std::string::npos) << r.out;
   expectFailure("check --solver nope", "unknown solver 'nope'");
+}
+
+}  // namespace
+}  // namespace minv
+
+namespace minv {
+namespace {
+
+// Three bodies whose joints are all named alike: refused at load, naming both places.
+TEST_F(CliBadInput, DuplicateJointNames) {
+  std::string text = jsonModel({JsonBody{}, JsonBody{0}, JsonBody{1}});
+  for (const char* name : {"\"j1\"", "\"j2\""}) text.replace(text.find(name), 4, "\"jj\"");
+  text.replace(text.find("\"j0\""), 4, "\"jj\"");
+  write("dup.json", text);
+  expectFailure("solve --model dup.json --out out.h5",
+                "joint of body 1 ('b1'): the joint name 'jj' is already used by the joint of body 0");
 }
 
 }  // namespace

@@ -492,8 +492,9 @@ TEST(ModelIoTest, UrdfWriterRejectsWhatUrdfCannotHold) {
   const Model sph = randomTree({Topology::Serial, 20, 8, false, JointSet::Mixed});
   std::ostringstream s;
   EXPECT_ERROR(writeUrdf(sph, s, "r"), "is spherical");
-  const Model dup = Model::create({-1, 0}, {joint("a"), joint("b")}, {body("x"), body("x")});
-  EXPECT_ERROR(writeUrdf(dup, s, "r"), "link name 'x' is empty or not unique");
+  // (Two bodies named alike are refused by Model::create itself: tests/model_validation_test.)
+  const Model unnamed = Model::create({-1, 0}, {joint("a"), joint("b")}, {body("x"), body("")});
+  EXPECT_ERROR(writeUrdf(unnamed, s, "r"), "link name '' is empty or not unique");
   const Model two = Model::create({-1, -1}, {joint("a", JointType::Floating), joint("b")},
                                   {body("x"), body("y")});
   EXPECT_ERROR(writeUrdf(two, s, "r"), "single root");

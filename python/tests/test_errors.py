@@ -1,0 +1,175 @@
+"""Errors: every bad input is a Python exception with the C++ (and `minv` command's) message,
+and the interpreter survives."""
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+
+import minv
+from conftest import cli_path
+
+CLI = cli_path()
+
+
+def cli_error(*args):
+    """The message of `minv <args>` ("minv: error: <message>" on stderr, exit 2)."""
+    run = subprocess.run([str(CLI), *map(str, args)], capture_output=True, text=True)
+    assert run.returncode == 2, run.stderr
+    line = run.stderr.strip().splitlines()[-1]
+    assert line.startswith("minv: error: ")
+    return line[len("minv: error: "):]
+
+
+@pytest.fixture
+def files(tmp_path):
+    """A good model file, bad model files and bad configuration files."""
+    good = tmp_path / "good.json"
+    minv.save_model(minv.random_tree("serial", 5), good)
+    broken = tmp_path / "broken.json"
+    broken.write_text("{not json")
+    negative = tmp_path / "negative.json"
+    negative.write_text(good.read_text().replace('"mass":', '"mass":-', 1))
+    short_q = tmp_path / "short.txt"
+    short_q.write_text("0.1 0.2 0.3\n")
+    nan_q = tmp_path / "nan.txt"
+    nan_q.write_text("0.1 nan 0.3 0.4 0.5\n")
+    return dict(good=good, broken=broken, negative=negative, missing=tmp_path / "missing.json",
+                short_q=short_q, nan_q=nan_q, out=tmp_path / "out.h5")
+
+
+@pytest.mark.parametrize("which", ["missing", "broken", "negative"])
+def test_bad_model_file(files, which):
+    with pytest.raises(minv.ModelError) as error:
+        minv.load_model(files[which])
+    assert isinstance(error.value, ValueError)
+    assert str(files[which].name) in str(error.value)
+    if CLI:
+        assert str(error.value) == cli_error("solve", "--model", files[which], "--out",
+                                             files["out"])
+
+
+@pytest.mark.parametrize("which", ["short_q", "nan_q"])
+def test_bad_configuration_file(files, which):
+    model = minv.load_model(files["good"])
+    with pytest.raises(minv.ModelError) as error:
+        minv.read_configuration(model, files[which])
+    if CLI:
+        assert str(error.value) == cli_error("solve", "--model", files["good"], "--q",
+                                             files[which], "--out", files["out"])
+
+
+def test_unknown_solver(files):
+    with pytest.raises(ValueError, match=r"^unknown solver 'nope' \(known: abi, ") as error:
+        minv.make_solver("nope")
+    assert not isinstance(error.value, minv.ModelError)
+    if CLI:
+        assert str(error.value) == cli_error("solve", "--model", files["good"], "--solver", "nope",
+                                             "--out", files["out"])
+    with pytest.raises(ValueError, match="unknown solver 'nope'"):
+        minv.flops("nope", minv.random_tree("serial", 2), np.zeros(2))
+
+
+def test_bad_configurations():
+    model = minv.random_tree("serial", 5)
+    solver = minv.make_solver("abi")
+    solver.prepare(model)
+    q = minv.random_configuration(model, 1)
+    # Wrong size, NaN: the messages of Model::checkConfiguration (the CLI's final check).
+    with pytest.raises(minv.ModelError, match=r"^configuration has 4 entries, model needs 5$"):
+        solver.configure(q[:4])
+    bad = q.copy()
+    bad[2] = np.nan
+    with pytest.raises(minv.ModelError, match=r"^configuration entry q\[2\] is not finite$"):
+        solver.configure(bad)
+    with pytest.raises(minv.ModelError, match="not finite"):
+        minv.mass_matrix(model, bad)
+    with pytest.raises(minv.ModelError, match="not finite"):
+        model.check_configuration(bad)
+    # A zero quaternion.
+    floating = minv.random_tree("serial", 2, floating_base=True)
+    qf = floating.neutral()
+    qf[3:7] = 0
+    with pytest.raises(minv.ModelError, match="zero quaternion"):
+        floating.check_configuration(qf)
+    solver.prepare(floating)
+    with pytest.raises(minv.ModelError, match="zero quaternion"):
+        solver.configure(qf)
+
+
+def test_bad_generator_arguments():
+    with pytest.raises(minv.ModelError, match="ring"):
+        minv.random_tree("ring", 5)
+    with pytest.raises(minv.ModelError):
+        minv.random_tree("serial", 0)
+    with pytest.raises(minv.ModelError, match="twisty"):
+        minv.random_tree("serial", 3, joints="twisty")
+    with pytest.raises(ValueError, match="seed"):
+        minv.random_tree("serial", 3, seed=-1)
+    with pytest.raises(ValueError, match="seed"):
+        minv.random_configuration(minv.random_tree("serial", 3), 2**64)
+    with pytest.raises(minv.ModelError):
+        minv.centipede(0)
+
+
+def test_life_cycle_order():
+    model = minv.random_tree("serial", 4)
+    solver = minv.make_solver("lapack")
+    with pytest.raises(RuntimeError, match="needs prepare"):
+        solver.inverse()
+    with pytest.raises(RuntimeError, match="needs prepare"):
+        solver.configure(model.neutral())
+    with pytest.raises(TypeError, match="minv.Model"):
+        solver.prepare("model.json")
+    solver.prepare(model)
+    with pytest.raises(RuntimeError, match="needs configure"):
+        solver.inverse()
+    with pytest.raises(RuntimeError, match="needs configure"):
+        solver.solve(np.ones(4))
+    solver.configure(model.neutral())
+    assert solver.inverse().shape == (4, 4)
+
+
+def test_bad_right_hand_sides():
+    model = minv.random_tree("serial", 4)
+    solver = minv.make_solver("abi")
+    solver.prepare(model)
+    solver.configure(model.neutral())
+    with pytest.raises(ValueError, match=r"shape \(nv,\) or \(nv, m\) with nv = 4; got shape \(3,"):
+        solver.solve(np.ones((3, 2)))
+    with pytest.raises(ValueError, match="got shape"):
+        solver.solve(np.ones((4, 2, 2)))
+    with pytest.raises(ValueError, match="complex"):
+        solver.solve(np.ones(4, dtype=complex))
+    with pytest.raises(ValueError, match="cannot convert"):
+        solver.solve("abcd")
+
+
+def test_interpreter_survives_every_error():
+    """All the bad inputs in a fresh interpreter, which must then exit normally."""
+    script = textwrap.dedent("""
+        import numpy as np, minv
+        m = minv.random_tree("serial", 6)
+        s = minv.make_solver("abi")
+        bad = [lambda: minv.load_model("/nonexistent/x.json"), lambda: minv.make_solver("x"),
+               lambda: s.inverse(), lambda: s.configure(np.zeros(6)), lambda: s.prepare(None),
+               lambda: s.solve(None)]
+        s2 = minv.make_solver("abi"); s2.prepare(m); s2.configure(m.neutral())
+        bad += [lambda: s2.configure(np.zeros(5)), lambda: s2.configure(np.full(6, np.nan)),
+                lambda: s2.inverse(out=np.empty((6, 6))), lambda: s2.inverse(out=np.empty(3)),
+                lambda: s2.inverse(out="x"), lambda: s2.solve(np.ones(5)),
+                lambda: s2.solve(np.ones(6), out=np.empty((6, 1), dtype=np.float32)),
+                lambda: minv.flops("abi-generic", m, m.neutral()),
+                lambda: minv.mass_matrix(m, [1, 2])]
+        for f in bad:
+            try:
+                f()
+                raise SystemExit("no exception")
+            except (ValueError, RuntimeError, TypeError) as e:
+                pass
+        print("alive", s2.inverse().shape)
+    """)
+    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    assert "alive (6, 6)" in run.stdout

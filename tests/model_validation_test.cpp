@@ -1,0 +1,124 @@
+// Model::create's checks that a user's own file reaches (core/model.hpp): unique names, the
+// physical range, an axis given with huge entries, and numbers in messages that say what they
+// are (not "%f", which turns 1e-9 into 0.000000).
+#include <gtest/gtest.h>
+
+#include <limits>
+
+#include "core/crba.hpp"
+#include "core/model.hpp"
+#include "generators/model_io.hpp"
+
+namespace minv {
+namespace {
+
+// Three bodies in a chain, revolute about z, unit placements along x.
+struct Chain {
+  std::vector<int> parent{-1, 0, 1};
+  std::vector<Joint> joints{3};
+  std::vector<Body> bodies{3};
+  Chain() {
+    for (int i = 0; i < 3; ++i) {
+      joints[i].name = "j" + std::to_string(i);
+      joints[i].placement.p = Eigen::Vector3d(i > 0 ? 1.0 : 0.0, 0, 0);
+      bodies[i].name = "b" + std::to_string(i);
+    }
+  }
+  std::string error() const {
+    try {
+      Model::create(parent, joints, bodies);
+    } catch (const ModelError& e) {
+      return e.what();
+    }
+    return "";
+  }
+};
+
+TEST(ModelValidation, FormatNumberRoundTrips) {
+  EXPECT_EQ(formatNumber(1e-9), "1e-09");
+  EXPECT_EQ(formatNumber(0.5), "0.5");
+  EXPECT_EQ(formatNumber(0.1 + 0.2), "0.30000000000000004");
+  EXPECT_EQ(formatNumber(std::numeric_limits<double>::quiet_NaN()), "nan");
+  EXPECT_EQ(formatNumber(-std::numeric_limits<double>::infinity()), "-inf");
+}
+
+TEST(ModelValidation, DuplicateNamesNameBothPlaces) {
+  Chain c;
+  c.joints[2].name = "j0";
+  EXPECT_NE(c.error().find("joint name 'j0' is already used by the joint of body 0"),
+            std::string::npos)
+      << c.error();
+  EXPECT_NE(c.error().find("body 2"), std::string::npos) << c.error();
+  Chain d;
+  d.bodies[1].name = "b0";
+  EXPECT_NE(d.error().find("body 1 ('b0'): the body name 'b0' is already used by body 0"),
+            std::string::npos)
+      << d.error();
+  // Empty names are allowed, and numbered in the DOF names.
+  Chain e;
+  e.joints[0].name = e.joints[1].name = "";
+  EXPECT_EQ(e.error(), "");
+}
+
+TEST(ModelValidation, NumbersInMessagesKeepTheirValue) {
+  Chain c;
+  c.bodies[1].mass = -1e-9;
+  EXPECT_NE(c.error().find("got -1e-09"), std::string::npos) << c.error();
+  c.bodies[1].mass = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(c.error().find("got nan"), std::string::npos) << c.error();
+}
+
+TEST(ModelValidation, PhysicalRangeIsCheckedAtLoad) {
+  Chain c;
+  c.bodies[2].mass = 1e308;
+  EXPECT_NE(c.error().find("body 2 ('b2'): mass 1e+308 is beyond 1e+30"), std::string::npos)
+      << c.error();
+  Chain d;
+  d.bodies[0].com = Eigen::Vector3d(0, 1e31, 0);
+  EXPECT_NE(d.error().find("centre of mass coordinate 1e+31"), std::string::npos) << d.error();
+  Chain e;
+  e.bodies[1].inertia *= 1e40;
+  EXPECT_NE(e.error().find("rotational inertia entry"), std::string::npos) << e.error();
+  Chain f;
+  f.joints[1].placement.p = Eigen::Vector3d(-2e30, 0, 0);
+  EXPECT_NE(f.error().find("joint of body 1 ('j1'): placement translation -2e+30"),
+            std::string::npos)
+      << f.error();
+}
+
+// An axis with huge (or tiny) entries names a direction: it is normalised without overflow and
+// gives the same M as the unit axis.
+TEST(ModelValidation, ExtremeAxisIsItsDirection) {
+  Chain a, b;
+  a.joints[1].axis = Eigen::Vector3d(1e308, 1e308, 0);
+  b.joints[1].axis = Eigen::Vector3d(1, 1, 0);
+  const Model ma = Model::create(a.parent, a.joints, a.bodies);
+  const Model mb = Model::create(b.parent, b.joints, b.bodies);
+  EXPECT_TRUE(ma.joint(1).axis.isApprox(mb.joint(1).axis, 1e-15));
+  const Eigen::VectorXd q = Eigen::Vector3d(0.3, -0.4, 0.5);
+  EXPECT_TRUE(massMatrix(ma, q).allFinite());
+  EXPECT_LT((massMatrix(ma, q) - massMatrix(mb, q)).norm(), 1e-14);
+  Chain t;
+  t.joints[1].axis = Eigen::Vector3d(1e-200, 0, 0);
+  EXPECT_NE(t.error().find("joint axis is zero"), std::string::npos);
+}
+
+// A URDF mass of nan names the value it read.
+TEST(ModelValidation, UrdfNanMassIsNamed) {
+  const std::string urdf = R"(<robot name="r"><link name="a"/>
+    <link name="b"><inertial><mass value="nan"/>
+      <inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>
+    <joint name="j" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/>
+      <limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>)";
+  try {
+    readUrdf(urdf, "r.urdf", false);
+    FAIL() << "accepted a nan mass";
+  } catch (const ModelError& e) {
+    EXPECT_NE(std::string(e.what()).find("'nan' is not a finite number"), std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find("link 'b'"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace minv
