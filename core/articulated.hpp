@@ -15,14 +15,17 @@ namespace minv {
 
 template <class T>
 struct Articulated {
-  std::vector<Mat6<T>> IA;  // articulated-body inertias
-  Mat6N<T> U;               // U = IA T, column per DOF
-  Mat6N<T> UDinv;           // U D⁻¹, column per DOF
+  std::vector<Mat6<T>> IA;    // articulated-body inertias
+  Mat6N<T> U;                 // U = IA T, column per DOF
+  Mat6N<T> UDinv;             // U D⁻¹, column per DOF
   std::vector<MatK<T>> Dinv;  // D⁻¹ per body, k×k
   VecX<T> dinv;               // D⁻¹ of each one-DOF body at its DOF: dense, for the sweeps
 
   explicit Articulated(const Model& m)
-      : IA(m.nb()), U(Mat6N<T>::Zero(6, m.nv())), UDinv(Mat6N<T>::Zero(6, m.nv())), Dinv(m.nb()),
+      : IA(m.nb()),
+        U(Mat6N<T>::Zero(6, m.nv())),
+        UDinv(Mat6N<T>::Zero(6, m.nv())),
+        Dinv(m.nb()),
         dinv(VecX<T>::Zero(m.nv())) {
     for (int i = 0; i < m.nb(); ++i) Dinv[i] = MatK<T>::Zero(m.nvOf(i), m.nvOf(i));
   }

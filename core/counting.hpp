@@ -59,10 +59,10 @@ class Counted {
   friend Counted operator*(Counted a, const Counted& b) { return a *= b; }
   friend Counted operator/(Counted a, const Counted& b) { return a /= b; }
 
-#define MINV_COUNTED_COMPARE(op)                                 \
+#define MINV_COUNTED_COMPARE(op)                                \
   friend bool operator op(const Counted& a, const Counted& b) { \
-    ++threadFlops().cmp;                                         \
-    return a.v_ op b.v_;                                         \
+    ++threadFlops().cmp;                                        \
+    return a.v_ op b.v_;                                        \
   }
   MINV_COUNTED_COMPARE(<)
   MINV_COUNTED_COMPARE(<=)
@@ -72,13 +72,27 @@ class Counted {
   MINV_COUNTED_COMPARE(!=)
 #undef MINV_COUNTED_COMPARE
 
-  friend Counted sqrt(const Counted& a) { return ++threadFlops().sqrt, Counted(std::sqrt(a.v_)); }
-  friend Counted sin(const Counted& a) { return ++threadFlops().trig, Counted(std::sin(a.v_)); }
-  friend Counted cos(const Counted& a) { return ++threadFlops().trig, Counted(std::cos(a.v_)); }
-  friend Counted abs(const Counted& a) { return Counted(std::abs(a.v_)); }
-  friend bool isfinite(const Counted& a) { return std::isfinite(a.v_); }
-  friend bool isnan(const Counted& a) { return std::isnan(a.v_); }
-  friend bool isinf(const Counted& a) { return std::isinf(a.v_); }
+  friend Counted sqrt(const Counted& a) {
+    return ++threadFlops().sqrt, Counted(std::sqrt(a.v_));
+  }
+  friend Counted sin(const Counted& a) {
+    return ++threadFlops().trig, Counted(std::sin(a.v_));
+  }
+  friend Counted cos(const Counted& a) {
+    return ++threadFlops().trig, Counted(std::cos(a.v_));
+  }
+  friend Counted abs(const Counted& a) {
+    return Counted(std::abs(a.v_));
+  }
+  friend bool isfinite(const Counted& a) {
+    return std::isfinite(a.v_);
+  }
+  friend bool isnan(const Counted& a) {
+    return std::isnan(a.v_);
+  }
+  friend bool isinf(const Counted& a) {
+    return std::isinf(a.v_);
+  }
 
  private:
   double v_ = 0;
@@ -111,8 +125,15 @@ struct NumTraits<minv::Counted> : NumTraits<double> {
   using NonInteger = minv::Counted;
   using Nested = minv::Counted;
   using Literal = minv::Counted;
-  enum { IsComplex = 0, IsInteger = 0, IsSigned = 1, RequireInitialization = 1,
-         ReadCost = 1, AddCost = 1, MulCost = 1 };
+  enum {
+    IsComplex = 0,
+    IsInteger = 0,
+    IsSigned = 1,
+    RequireInitialization = 1,
+    ReadCost = 1,
+    AddCost = 1,
+    MulCost = 1
+  };
   static minv::Counted epsilon() { return NumTraits<double>::epsilon(); }
   static minv::Counted dummy_precision() { return NumTraits<double>::dummy_precision(); }
   static minv::Counted highest() { return NumTraits<double>::highest(); }

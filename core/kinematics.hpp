@@ -59,8 +59,12 @@ Pose<T> jointPose(const Joint& j, const VecX<T>& q, int o) {
       J.R = c * Mat3<T>::Identity() + s * skew<T>(a) + (T(1) - c) * (a * a.transpose());
       break;
     }
-    case JointType::Prismatic: J.p = a * q(o); break;
-    case JointType::Spherical: J.R = quatToRotation<T>(q(o), q(o + 1), q(o + 2), q(o + 3)); break;
+    case JointType::Prismatic:
+      J.p = a * q(o);
+      break;
+    case JointType::Spherical:
+      J.R = quatToRotation<T>(q(o), q(o + 1), q(o + 2), q(o + 3));
+      break;
     case JointType::Floating:
       J.p = q.template segment<3>(o);
       J.R = quatToRotation<T>(q(o + 3), q(o + 4), q(o + 5), q(o + 6));
@@ -73,8 +77,8 @@ Pose<T> jointPose(const Joint& j, const VecX<T>& q, int o) {
 // With threads > 1 (and no marks) the per-body steps are shared among OpenMP threads and only
 // the composition along the tree runs in order.
 template <class T, class Mark = NoMark>
-void forwardKinematics(const Model& model, const VecX<T>& q, Kinematics<T>& kin,
-                       Mark&& mark = {}, int threads = 1) {
+void forwardKinematics(const Model& model, const VecX<T>& q, Kinematics<T>& kin, Mark&& mark = {},
+                       int threads = 1) {
   // The joint's pose in its parent's frame: placement · X_J(q_i).
   auto local = [&](int i) {
     const Joint& j = model.joint(i);

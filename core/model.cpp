@@ -20,9 +20,12 @@ std::string formatNumber(double x) {
 int jointNv(JointType t) {
   switch (t) {
     case JointType::Revolute:
-    case JointType::Prismatic: return 1;
-    case JointType::Spherical: return 3;
-    case JointType::Floating: return 6;
+    case JointType::Prismatic:
+      return 1;
+    case JointType::Spherical:
+      return 3;
+    case JointType::Floating:
+      return 6;
   }
   return 0;
 }
@@ -30,26 +33,33 @@ int jointNv(JointType t) {
 int jointNq(JointType t) {
   switch (t) {
     case JointType::Revolute:
-    case JointType::Prismatic: return 1;
-    case JointType::Spherical: return 4;
-    case JointType::Floating: return 7;
+    case JointType::Prismatic:
+      return 1;
+    case JointType::Spherical:
+      return 4;
+    case JointType::Floating:
+      return 7;
   }
   return 0;
 }
 
 const char* jointTypeName(JointType t) {
   switch (t) {
-    case JointType::Revolute: return "revolute";
-    case JointType::Prismatic: return "prismatic";
-    case JointType::Spherical: return "spherical";
-    case JointType::Floating: return "floating";
+    case JointType::Revolute:
+      return "revolute";
+    case JointType::Prismatic:
+      return "prismatic";
+    case JointType::Spherical:
+      return "spherical";
+    case JointType::Floating:
+      return "floating";
   }
   return "?";
 }
 
 JointType jointTypeFromName(const std::string& name) {
-  for (JointType t : {JointType::Revolute, JointType::Prismatic, JointType::Spherical,
-                      JointType::Floating})
+  for (JointType t :
+       {JointType::Revolute, JointType::Prismatic, JointType::Spherical, JointType::Floating})
     if (name == jointTypeName(t)) return t;
   throw ModelError("unknown joint type '" + name +
                    "' (expected revolute, prismatic, spherical or floating)");
@@ -57,7 +67,9 @@ JointType jointTypeFromName(const std::string& name) {
 
 namespace {
 
-bool finite(const auto& m) { return m.allFinite(); }
+bool finite(const auto& m) {
+  return m.allFinite();
+}
 
 std::string where(int i, const std::string& name) {
   return "body " + std::to_string(i) + (name.empty() ? "" : " ('" + name + "')");
@@ -78,7 +90,8 @@ void checkBody(int i, const Body& b) {
     throw ModelError(at + ": mass must be positive and finite, got " + formatNumber(b.mass));
   if (b.mass > kMaxPhysicalMagnitude)
     throw ModelError(at + ": mass " + formatNumber(b.mass) + " is beyond " +
-                     formatNumber(kMaxPhysicalMagnitude) + ", the range minv's kernels keep finite");
+                     formatNumber(kMaxPhysicalMagnitude) +
+                     ", the range minv's kernels keep finite");
   if (!finite(b.com)) throw ModelError(at + ": centre of mass is not finite");
   if (!finite(b.inertia)) throw ModelError(at + ": rotational inertia is not finite");
   if (const std::string e = outOfRange(b.com, "centre of mass coordinate"); !e.empty())
@@ -159,8 +172,7 @@ Model Model::create(std::vector<int> parent, std::vector<Joint> joints, std::vec
     // Expand λ over DOFs: the first DOF hangs off the parent's last DOF, the rest chain.
     for (int j = 0; j < k; ++j) {
       int p = j > 0 ? m.nv_ + j - 1 : -1;
-      if (j == 0 && parent[i] >= 0)
-        p = m.v_idx_[parent[i]] + jointNv(joints[parent[i]].type) - 1;
+      if (j == 0 && parent[i] >= 0) p = m.v_idx_[parent[i]] + jointNv(joints[parent[i]].type) - 1;
       m.dof_parent_.push_back(p);
       m.dof_body_.push_back(i);
     }
@@ -190,7 +202,9 @@ Model Model::create(std::vector<int> parent, std::vector<Joint> joints, std::vec
   return m;
 }
 
-int Model::maxDepth() const { return *std::max_element(depth_.begin(), depth_.end()); }
+int Model::maxDepth() const {
+  return *std::max_element(depth_.begin(), depth_.end());
+}
 
 namespace {
 // One name per coordinate: a 1-DOF joint's own name, else "<joint>_<suffix>" for each suffix of
@@ -218,7 +232,8 @@ std::vector<std::string> Model::dofNames() const {
 }
 
 std::vector<std::string> Model::qNames() const {
-  return coordinateNames(joints_, {"qw", "qx", "qy", "qz"}, {"x", "y", "z", "qw", "qx", "qy", "qz"});
+  return coordinateNames(joints_, {"qw", "qx", "qy", "qz"},
+                         {"x", "y", "z", "qw", "qx", "qy", "qz"});
 }
 
 Eigen::VectorXd Model::neutral() const {

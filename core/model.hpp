@@ -51,13 +51,13 @@ struct Joint {
   std::string name;
   JointType type = JointType::Revolute;
   Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  // unit; used by revolute and prismatic
-  Pose<double> placement;                            // joint frame in the parent body frame
+  Pose<double> placement;                           // joint frame in the parent body frame
 };
 
 struct Body {
   std::string name;
   double mass = 1.0;
-  Eigen::Vector3d com = Eigen::Vector3d::Zero();           // in the body frame
+  Eigen::Vector3d com = Eigen::Vector3d::Zero();          // in the body frame
   Eigen::Matrix3d inertia = Eigen::Matrix3d::Identity();  // about the com, body axes
 };
 

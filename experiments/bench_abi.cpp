@@ -99,28 +99,32 @@ class Collector : public benchmark::ConsoleReporter {
 
 // The pipeline of one registered solver: configure(q), then inverse (m = 0) or solve.
 void registerSolver(const std::string& solver, Topology t, int n, int m, int threads) {
-  std::string name = std::string(m == 0 ? "inverse/" : "solve/") + topologyName(t) + "/" +
-                     solver + (threads > 1 ? "@" + std::to_string(threads) : "") + "/" +
-                     std::to_string(n) + (m ? "/" + std::to_string(m) : "");
-  benchmark::RegisterBenchmark(name.c_str(), [=](benchmark::State& state) {
-    const Problem& p = problem(t, n);
-    auto s = makeSolver(solver);
-    s->setThreads(threads);
-    s->prepare(p.model);
-    const int nv = p.model.nv();
-    Eigen::MatrixXd X(nv, m ? m : nv), R = Eigen::MatrixXd::Random(nv, m ? m : 1);
-    X.setZero();  // the output's pages are touched before timing, for every solver alike
-    for (auto _ : state) {
-      s->configure(p.q);
-      if (m == 0)
-        s->inverse(X);
-      else
-        s->solve(R, X);
-      benchmark::DoNotOptimize(X.data());
-      benchmark::ClobberMemory();
-    }
-    s->setThreads(1);
-  })->Unit(benchmark::kNanosecond)->UseRealTime();
+  std::string name = std::string(m == 0 ? "inverse/" : "solve/") + topologyName(t) + "/" + solver +
+                     (threads > 1 ? "@" + std::to_string(threads) : "") + "/" + std::to_string(n) +
+                     (m ? "/" + std::to_string(m) : "");
+  benchmark::RegisterBenchmark(
+      name.c_str(),
+      [=](benchmark::State& state) {
+        const Problem& p = problem(t, n);
+        auto s = makeSolver(solver);
+        s->setThreads(threads);
+        s->prepare(p.model);
+        const int nv = p.model.nv();
+        Eigen::MatrixXd X(nv, m ? m : nv), R = Eigen::MatrixXd::Random(nv, m ? m : 1);
+        X.setZero();  // the output's pages are touched before timing, for every solver alike
+        for (auto _ : state) {
+          s->configure(p.q);
+          if (m == 0)
+            s->inverse(X);
+          else
+            s->solve(R, X);
+          benchmark::DoNotOptimize(X.data());
+          benchmark::ClobberMemory();
+        }
+        s->setThreads(1);
+      })
+      ->Unit(benchmark::kNanosecond)
+      ->UseRealTime();
 }
 
 // abi's parts on the serial chain, one thread: configure (kinematics + articulated
@@ -129,35 +133,39 @@ void registerSolver(const std::string& solver, Topology t, int n, int m, int thr
 void registerParts(int n) {
   for (const char* part : {"configure", "sweeps", "blocks"}) {
     const std::string name = "parts/serial/" + std::string(part) + "/" + std::to_string(n);
-    benchmark::RegisterBenchmark(name.c_str(), [=](benchmark::State& state) {
-      const Problem& p = problem(Topology::Serial, n);
-      const Model& m = p.model;
-      Kinematics<double> kin(m);
-      Articulated<double> art(m);
-      AbiWorkspace<double> ws(m);
-      computeKinematics<double>(m, p.q, kin);
-      articulatedInertias<double>(m, kin, art);
-      Eigen::MatrixXd X = Eigen::MatrixXd::Zero(n, n);
-      constexpr int W = kAbiLanes<double>;
-      const std::string what = part;
-      NoMark none;
-      for (auto _ : state) {
-        if (what == "configure") {
+    benchmark::RegisterBenchmark(
+        name.c_str(),
+        [=](benchmark::State& state) {
+          const Problem& p = problem(Topology::Serial, n);
+          const Model& m = p.model;
+          Kinematics<double> kin(m);
+          Articulated<double> art(m);
+          AbiWorkspace<double> ws(m);
           computeKinematics<double>(m, p.q, kin);
           articulatedInertias<double>(m, kin, art);
-        } else if (what == "sweeps") {
-          for (int c0 = 0; c0 + W <= n; c0 += W) {
-            abiBackward<double, W, true>(m, kin, art, ws.wide[0], m.dofBody(c0 + W - 1), c0, W);
-            abiForward<double, W>(m, kin, art, ws.wide[0], m.dofBody(c0 + W - 1));
+          Eigen::MatrixXd X = Eigen::MatrixXd::Zero(n, n);
+          constexpr int W = kAbiLanes<double>;
+          const std::string what = part;
+          NoMark none;
+          for (auto _ : state) {
+            if (what == "configure") {
+              computeKinematics<double>(m, p.q, kin);
+              articulatedInertias<double>(m, kin, art);
+            } else if (what == "sweeps") {
+              for (int c0 = 0; c0 + W <= n; c0 += W) {
+                abiBackward<double, W, true>(m, kin, art, ws.wide[0], m.dofBody(c0 + W - 1), c0, W);
+                abiForward<double, W>(m, kin, art, ws.wide[0], m.dofBody(c0 + W - 1));
+              }
+            } else {
+              for (int c0 = 0; c0 + W <= n; c0 += W)
+                abiInverseBlock<double, W>(m, kin, art, ws.wide[0], c0, X, none);
+            }
+            benchmark::DoNotOptimize(X.data());
+            benchmark::ClobberMemory();
           }
-        } else {
-          for (int c0 = 0; c0 + W <= n; c0 += W)
-            abiInverseBlock<double, W>(m, kin, art, ws.wide[0], c0, X, none);
-        }
-        benchmark::DoNotOptimize(X.data());
-        benchmark::ClobberMemory();
-      }
-    })->Unit(benchmark::kNanosecond)->UseRealTime();
+        })
+        ->Unit(benchmark::kNanosecond)
+        ->UseRealTime();
   }
 }
 
@@ -178,27 +186,34 @@ void registerAll(bool full) {
     }
   for (int n : sizes) {
     // The memory floor: write n² doubles.
-    benchmark::RegisterBenchmark(("store/" + std::to_string(n)).c_str(), [n](benchmark::State& st) {
-      Eigen::MatrixXd X = Eigen::MatrixXd::Zero(n, n);
-      double v = 0;
-      for (auto _ : st) {
-        X.setConstant(v += 1);
-        benchmark::DoNotOptimize(X.data());
-        benchmark::ClobberMemory();
-      }
-    })->Unit(benchmark::kNanosecond)->UseRealTime();
+    benchmark::RegisterBenchmark(("store/" + std::to_string(n)).c_str(),
+                                 [n](benchmark::State& st) {
+                                   Eigen::MatrixXd X = Eigen::MatrixXd::Zero(n, n);
+                                   double v = 0;
+                                   for (auto _ : st) {
+                                     X.setConstant(v += 1);
+                                     benchmark::DoNotOptimize(X.data());
+                                     benchmark::ClobberMemory();
+                                   }
+                                 })
+        ->Unit(benchmark::kNanosecond)
+        ->UseRealTime();
     // OpenBLAS dgemm, n×n×n, one thread (to n = 2048 in quick mode: 3.4 s a call at 4096).
     if (n >= 64 && (full || n <= 2048)) {
       const std::string name = "dgemm/" + std::to_string(n);
-      benchmark::RegisterBenchmark(name.c_str(), [n](benchmark::State& st) {
-        Eigen::MatrixXd A = Eigen::MatrixXd::Random(n, n), B = A, C(n, n);
-        openblas_set_num_threads(1);  // one core, whatever ran before
-        for (auto _ : st) {
-          cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, n, n, n, 1.0, A.data(), n,
-                      B.data(), n, 0.0, C.data(), n);
-          benchmark::DoNotOptimize(C.data());
-        }
-      })->Unit(benchmark::kNanosecond)->UseRealTime();
+      benchmark::RegisterBenchmark(
+          name.c_str(),
+          [n](benchmark::State& st) {
+            Eigen::MatrixXd A = Eigen::MatrixXd::Random(n, n), B = A, C(n, n);
+            openblas_set_num_threads(1);  // one core, whatever ran before
+            for (auto _ : st) {
+              cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, n, n, n, 1.0, A.data(), n,
+                          B.data(), n, 0.0, C.data(), n);
+              benchmark::DoNotOptimize(C.data());
+            }
+          })
+          ->Unit(benchmark::kNanosecond)
+          ->UseRealTime();
     }
   }
 }
@@ -250,11 +265,13 @@ void report(bool full, const std::string& out) {
       if (s != "abi") others.push_back(s);
     for (const char* base : {"abi", "abi-generic"}) {
       if (!findSolver(base)) continue;
-      std::printf("\n%s, full M^-1 (configure + inverse), medians; ratios = peer time / %s time "
-                  "(0.00 = not measured at that n)\n%6s %10s",
-                  T.c_str(), base, "n", (std::string(base) + "_us").c_str());
+      std::printf(
+          "\n%s, full M^-1 (configure + inverse), medians; ratios = peer time / %s time "
+          "(0.00 = not measured at that n)\n%6s %10s",
+          T.c_str(), base, "n", (std::string(base) + "_us").c_str());
       for (const std::string& s : others)
-        if (s != base) std::printf(" %*s", static_cast<int>(std::max<std::size_t>(8, s.size())), s.c_str());
+        if (s != base)
+          std::printf(" %*s", static_cast<int>(std::max<std::size_t>(8, s.size())), s.c_str());
       std::printf("\n");
       std::vector<double> ns;
       std::map<std::string, std::vector<double>> cols;
@@ -272,7 +289,8 @@ void report(bool full, const std::string& out) {
         }
         std::printf("\n");
       }
-      const std::string g = std::string("ratios/") + T + (std::string(base) == "abi" ? "" : "/generic");
+      const std::string g =
+          std::string("ratios/") + T + (std::string(base) == "abi" ? "" : "/generic");
       h5.writeVector(g + "/n", ns);
       for (const auto& [name, v] : cols) h5.writeVector(g + "/" + name, v);
     }
@@ -294,8 +312,8 @@ void report(bool full, const std::string& out) {
       const double row[5] = {gflops, dgemm_rate > 0 ? 100 * gflops / dgemm_rate : 0,
                              store > 0 ? abi / store : 0, thr2 > 0 ? abi / thr2 : 0,
                              s8 > 0 ? l8 / s8 : 0};
-      std::printf("%*s %6d %9.2f %7.1f %9.2f %8.2f %10.1f\n", static_cast<int>(T.size() + 5), "",
-                  n, row[0], row[1], row[2], row[3], row[4]);
+      std::printf("%*s %6d %9.2f %7.1f %9.2f %8.2f %10.1f\n", static_cast<int>(T.size() + 5), "", n,
+                  row[0], row[1], row[2], row[3], row[4]);
       ns.push_back(n);
       for (int c = 0; c < 5; ++c) cols[c].push_back(row[c]);
     }
@@ -312,8 +330,9 @@ void report(bool full, const std::string& out) {
         }
   }
   // Where abi's time goes on the serial chain (one thread).
-  std::printf("\nserial, abi's parts (one thread), medians in us: inverse = sweeps + writes "
-              "(of M^-1's entries); pipeline = configure + inverse\n");
+  std::printf(
+      "\nserial, abi's parts (one thread), medians in us: inverse = sweeps + writes "
+      "(of M^-1's entries); pipeline = configure + inverse\n");
   std::printf("%6s %10s %10s %10s %10s %10s %10s\n", "n", "configure", "sweeps", "writes",
               "inverse", "store", "pipeline");
   std::vector<double> pn, parts[6];
@@ -322,15 +341,19 @@ void report(bool full, const std::string& out) {
     const double c = med("parts/serial/configure/" + N), sw = med("parts/serial/sweeps/" + N),
                  bl = med("parts/serial/blocks/" + N);
     if (c == 0) continue;
-    const double row[6] = {c * 1e6, sw * 1e6, (bl - sw) * 1e6, bl * 1e6,
-                           med("store/" + N) * 1e6, med("inverse/serial/abi/" + N) * 1e6};
+    const double row[6] = {c * 1e6,
+                           sw * 1e6,
+                           (bl - sw) * 1e6,
+                           bl * 1e6,
+                           med("store/" + N) * 1e6,
+                           med("inverse/serial/abi/" + N) * 1e6};
     std::printf("%6d %10.1f %10.1f %10.1f %10.1f %10.1f %10.1f\n", n, row[0], row[1], row[2],
                 row[3], row[4], row[5]);
     pn.push_back(n);
     for (int k = 0; k < 6; ++k) parts[k].push_back(row[k]);
   }
-  const char* pnames[6] = {"configure_us", "sweeps_us", "writes_us", "inverse_us", "store_us",
-                           "pipeline_us"};
+  const char* pnames[6] = {"configure_us", "sweeps_us", "writes_us",
+                           "inverse_us",   "store_us",  "pipeline_us"};
   if (!pn.empty()) {
     h5.writeVector("parts/serial/n", pn);
     for (int k = 0; k < 6; ++k) h5.writeVector("parts/serial/" + std::string(pnames[k]), parts[k]);
@@ -359,10 +382,11 @@ int memoryRun(int n, const std::string& out) {
   const double out_mib = 8.0 * n * n / (1 << 20), peak = after.ru_maxrss / 1024.0;
   const double growth = (after.ru_maxrss - before.ru_maxrss) / 1024.0;
   const bool finite = X.allFinite();
-  std::printf("memory: n = %d, M^-1 is %.0f MiB; inverse took %.2f s; peak RSS %.0f MiB "
-              "(%.1f MiB beyond the output); rss growth during configure+inverse %.1f MiB; "
-              "finite: %s\n",
-              n, out_mib, secs, peak, peak - out_mib, growth, finite ? "yes" : "no");
+  std::printf(
+      "memory: n = %d, M^-1 is %.0f MiB; inverse took %.2f s; peak RSS %.0f MiB "
+      "(%.1f MiB beyond the output); rss growth during configure+inverse %.1f MiB; "
+      "finite: %s\n",
+      n, out_mib, secs, peak, peak - out_mib, growth, finite ? "yes" : "no");
   H5Writer h5(out);
   writeProvenance(h5);
   h5.setAttribute("/", "experiment", "perf_memory");

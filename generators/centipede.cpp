@@ -21,9 +21,9 @@ Body box(const std::string& name, double m, double a, double b, double c) {
   Body body;
   body.name = name;
   body.mass = m;
-  body.inertia = Eigen::Vector3d(m * (b * b + c * c) / 12, m * (a * a + c * c) / 12,
-                                 m * (a * a + b * b) / 12)
-                     .asDiagonal();
+  body.inertia =
+      Eigen::Vector3d(m * (b * b + c * c) / 12, m * (a * a + c * c) / 12, m * (a * a + b * b) / 12)
+          .asDiagonal();
   return body;
 }
 
@@ -71,8 +71,8 @@ Centipede makeCentipede(const CentipedeOptions& o) {
       parent.push_back(c.segment_body[k - 1]);
     }
     joints.push_back(j);
-    bodies.push_back(box("segment" + s, o.segment_mass, o.segment_length, o.segment_width,
-                         o.segment_height));
+    bodies.push_back(
+        box("segment" + s, o.segment_mass, o.segment_length, o.segment_width, o.segment_height));
     for (int side : {1, -1}) {
       const std::string lr = side > 0 ? "l" : "r";
       // Upper leg on a spherical hip.

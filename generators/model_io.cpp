@@ -573,8 +573,7 @@ Model withFloatingBase(const Model& fixed) {
   return Model::create(parents, std::move(joints), std::move(bodies));
 }
 
-Eigen::VectorXd readConfiguration(const Model& model, std::istream& in,
-                                  const std::string& source) {
+Eigen::VectorXd readConfiguration(const Model& model, std::istream& in, const std::string& source) {
   const std::vector<std::string> names = model.qNames();
   Eigen::VectorXd q = model.neutral();
   std::vector<int> line_of(model.nq(), 0);  // where each named entry was set
@@ -609,10 +608,10 @@ Eigen::VectorXd readConfiguration(const Model& model, std::istream& in,
     }
     if (form == Plain) {
       // Every token of the line is the next entry of q.
-      for (std::string t = first;; ) {
+      for (std::string t = first;;) {
         if (count >= model.nq())
-          throw ModelError(source + ":" + std::to_string(line_no) + ": more than nq = " +
-                           std::to_string(model.nq()) + " numbers");
+          throw ModelError(source + ":" + std::to_string(line_no) +
+                           ": more than nq = " + std::to_string(model.nq()) + " numbers");
         q(count) = number(t, "entry q[" + std::to_string(count) + "]");
         ++count;
         if (!(tokens >> t)) break;
@@ -622,8 +621,8 @@ Eigen::VectorXd readConfiguration(const Model& model, std::istream& in,
     // Named: "name value" and nothing else on the line.
     std::string value, extra;
     if (!(tokens >> value) || (tokens >> extra))
-      throw ModelError(source + ":" + std::to_string(line_no) +
-                       ": expected 'name value', got '" + line + "'");
+      throw ModelError(source + ":" + std::to_string(line_no) + ": expected 'name value', got '" +
+                       line + "'");
     const auto it = std::find(names.begin(), names.end(), first);
     if (it == names.end())
       throw ModelError(source + ":" + std::to_string(line_no) + ": unknown q name '" + first +
@@ -639,8 +638,8 @@ Eigen::VectorXd readConfiguration(const Model& model, std::istream& in,
   }
   if (form == Unknown) throw ModelError(source + ": no configuration in the file");
   if (form == Plain && count != model.nq())
-    throw ModelError(source + ": " + std::to_string(count) + " numbers, the model needs nq = " +
-                     std::to_string(model.nq()));
+    throw ModelError(source + ": " + std::to_string(count) +
+                     " numbers, the model needs nq = " + std::to_string(model.nq()));
   try {
     model.checkConfiguration(q);
   } catch (const ModelError& e) {

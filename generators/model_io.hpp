@@ -73,8 +73,9 @@ Model readUrdf(const std::string& xml, const std::string& source_name, bool floa
 void writeUrdf(const Model& model, std::ostream& out, const std::string& robot_name);
 
 // By extension: .json, .urdf, or .xml for MJCF (generators/mjcf.hpp, MuJoCo's parser). A
-// missing, unreadable or empty file is a ModelError naming the path. floating_base = true gives a fixed-base JSON model a floating base through
-// withFloatingBase (a JSON model that has one keeps it; false never removes one).
+// missing, unreadable or empty file is a ModelError naming the path. floating_base = true gives a
+// fixed-base JSON model a floating base through withFloatingBase (a JSON model that has one keeps
+// it; false never removes one).
 Model loadModel(const std::string& path, bool floating_base);
 // By extension; the model and name are written to path + ".tmp", which is then renamed.
 void saveModel(const Model& model, const std::string& path);

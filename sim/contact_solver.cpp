@@ -52,7 +52,8 @@ ContactResiduals solveBoundQP(const Eigen::MatrixXd& G, const Eigen::VectorXd& g
   }
   g.noalias() = G * beta + g0;
   r.kkt = kkt();
-  for (int j = 0; j < m; ++j) r.complementarity = std::max(r.complementarity, std::abs(beta(j) * g(j)));
+  for (int j = 0; j < m; ++j)
+    r.complementarity = std::max(r.complementarity, std::abs(beta(j) * g(j)));
   return r;
 }
 
@@ -65,7 +66,8 @@ ContactSolution solveMaxDissipation(const ContactProblem& p, const Eigen::Vector
   // G = WᵀAW blockwise, g0 = Wᵀ(v0 + [b; 0; 0]).
   Eigen::MatrixXd AW(3 * nc, k * nc), G(k * nc, k * nc);
   for (int c = 0; c < nc; ++c) AW.middleCols(k * c, k).noalias() = p.A.middleCols(3 * c, 3) * W;
-  for (int c = 0; c < nc; ++c) G.middleRows(k * c, k).noalias() = W.transpose() * AW.middleRows(3 * c, 3);
+  for (int c = 0; c < nc; ++c)
+    G.middleRows(k * c, k).noalias() = W.transpose() * AW.middleRows(3 * c, 3);
   Eigen::VectorXd g0(k * nc);
   for (int c = 0; c < nc; ++c) {
     Eigen::Vector3d vc = p.v0.segment<3>(3 * c);

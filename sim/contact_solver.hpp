@@ -46,10 +46,10 @@ struct ContactSolverOptions {
 struct ContactResiduals {
   int iterations = 0;
   bool converged = true;
-  double kkt = 0;             // ‖min(β, g)‖_∞ (velocity units)
-  double complementarity = 0; // max_j |β_j g_j|
-  double penetration = 0;     // max_c max(0, −(v⁺_n + b))
-  double cone = 0;            // max_c distance outside the linearised cone (impulse units)
+  double kkt = 0;              // ‖min(β, g)‖_∞ (velocity units)
+  double complementarity = 0;  // max_j |β_j g_j|
+  double penetration = 0;      // max_c max(0, −(v⁺_n + b))
+  double cone = 0;             // max_c distance outside the linearised cone (impulse units)
 };
 
 // min ½βᵀGβ + βᵀg0 over β ≥ 0 by PGS; β is the warm start on entry (resized and zeroed if
@@ -62,7 +62,7 @@ struct ContactProblem {
   Eigen::VectorXd v0;  // 3nc pre-contact velocities
   Eigen::VectorXd b;   // nc normal bias
   double mu = 0.8;
-  int k = 4;           // friction directions (≥ 3)
+  int k = 4;  // friction directions (≥ 3)
 };
 
 struct ContactSolution {

@@ -17,14 +17,14 @@
 namespace minv::sim {
 
 struct GaitOptions {
-  double frequency = 1.5;      // Hz
-  double wave = 6.0;           // wavelength in segments
-  double swing = 0.35;         // rad, yaw amplitude of a hip
-  double lift = 0.35;          // rad, hip lift during swing
-  double kp_hip = 6.0, kd_hip = 0.05, max_hip = 2.0;     // N·m/rad, N·m·s/rad, N·m
+  double frequency = 1.5;                             // Hz
+  double wave = 6.0;                                  // wavelength in segments
+  double swing = 0.35;                                // rad, yaw amplitude of a hip
+  double lift = 0.35;                                 // rad, hip lift during swing
+  double kp_hip = 6.0, kd_hip = 0.05, max_hip = 2.0;  // N·m/rad, N·m·s/rad, N·m
   double kp_knee = 6.0, kd_knee = 0.05, max_knee = 2.0;
-  double kp_body = 4.0, kd_body = 0.1, max_body = 3.0;   // segment joints
-  double ramp = 0.25;          // s
+  double kp_body = 4.0, kd_body = 0.1, max_body = 3.0;  // segment joints
+  double ramp = 0.25;                                   // s
 };
 
 class CentipedeGait {

@@ -90,7 +90,8 @@ void Simulator::step() {
       }
       const double bc = phi >= 0 ? phi / h : o_.erp * phi / h;
       Vec6<double> f[3];
-      for (int d = 0; d < 3; ++d) f[d] = unitWrench(p, Eigen::Vector3d::Unit((d + 2) % 3));  // z, x, y
+      for (int d = 0; d < 3; ++d)
+        f[d] = unitWrench(p, Eigen::Vector3d::Unit((d + 2) % 3));  // z, x, y
       const double vn = f[0].dot(aba_.V.col(b));
       if (vn + bc < 0) {
         active_.push_back(c);

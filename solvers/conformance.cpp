@@ -161,7 +161,7 @@ ConformanceReport checkSolver(const std::string& label, const SolverFactory& mak
 
 ConformanceReport checkSolver(const std::string& name, const ConformanceOptions& options) {
   const SolverEntry* e = findSolver(name);
-  if (!e) makeSolver(name);  // throws with the list of known names
+  if (!e) makeSolver(name);            // throws with the list of known names
   const SolverFactory make = e->make;  // a copy: a later registerSolver() may move the entry
   return checkSolver(name, make, options);
 }

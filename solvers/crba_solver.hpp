@@ -65,7 +65,7 @@ class CrbaSolver : public Solver {
 
  protected:
   virtual void allocate(const Model& model) = 0;  // the factor's storage
-  virtual void factor() = 0;  // factor M_, in place where the method allows
+  virtual void factor() = 0;                      // factor M_, in place where the method allows
 
   const Model* model_ = nullptr;
   std::unique_ptr<Kinematics<double>> kin_;

@@ -28,8 +28,8 @@ std::vector<StageCount> LapackSolver::countStages(const Model& model, const Eige
   FlopCounts potrf{(n * n * n + 3 * n * n + 2 * n) / 6, (n * n * n - n) / 6, 0, 0, 0, 0};
   out.push_back({"factorization", potrf, true});
   if (m == 0) {
-    FlopCounts potri{(n * n * n + 3 * n * n + 2 * n) / 3, (2 * n * n * n - 3 * n * n + n) / 6, 0,
-                     0, 0, 0};
+    FlopCounts potri{
+        (n * n * n + 3 * n * n + 2 * n) / 3, (2 * n * n * n - 3 * n * n + n) / 6, 0, 0, 0, 0};
     out.push_back({"inverse from factor", potri, true});
   } else {
     FlopCounts potrs{m * n * (n + 1), m * n * (n - 1), 0, 0, 0, 0};

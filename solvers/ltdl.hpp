@@ -75,9 +75,7 @@ class LtdlSolver final : public CrbaSolver {
         [&](const MatX<Counted>& H, auto&& x) { ltdlSolve<Counted>(lambda, H, x); });
   }
 
-  void inverse(MatrixOut Minv) override {
-    ltdlInverse<double>(model_->dofParent(), M_, Minv);
-  }
+  void inverse(MatrixOut Minv) override { ltdlInverse<double>(model_->dofParent(), M_, Minv); }
   void solve(MatrixIn R, MatrixOut X) override {
     X = R;
     for (int c = 0; c < X.cols(); ++c) ltdlSolve<double>(model_->dofParent(), M_, X.col(c));

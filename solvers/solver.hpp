@@ -61,7 +61,8 @@ inline std::vector<StageCount> stageCounts(const StageCounter& counter) {
 }
 
 // Counts every stage of a solver's pipeline from q to M⁻¹ (inverse) or to M⁻¹R with m columns.
-using CountFn = std::function<std::vector<StageCount>(const Model&, const Eigen::VectorXd& q, int m)>;
+using CountFn =
+    std::function<std::vector<StageCount>(const Model&, const Eigen::VectorXd& q, int m)>;
 
 struct SolverEntry {
   std::string name;     // see validSolverName(): letters, digits, '_' and '-'

@@ -1,4 +1,6 @@
 // The centipede model and the `minv generate --topology centipede` / `minv simulate` commands.
+#include "generators/centipede.hpp"
+
 #include <gtest/gtest.h>
 
 #include <array>
@@ -8,7 +10,6 @@
 #include <string>
 
 #include "core/kinematics.hpp"
-#include "generators/centipede.hpp"
 
 namespace minv {
 namespace {
@@ -78,10 +79,10 @@ TEST(CentipedeCli, TwentySegmentsWalkForward) {
 }
 
 TEST(CentipedeCli, SimulateErrorsAreOneLine) {
-  const std::string path =
-      (std::filesystem::temp_directory_path() / "minv_sim_bad.h5").string();
+  const std::string path = (std::filesystem::temp_directory_path() / "minv_sim_bad.h5").string();
   int status = 0;
-  std::string out = run("simulate centipede --segments 3 --steps 5 --solver nope --out " + path, &status);
+  std::string out =
+      run("simulate centipede --segments 3 --steps 5 --solver nope --out " + path, &status);
   EXPECT_EQ(status, 2);
   EXPECT_EQ(out.rfind("minv: error: ", 0), 0u) << out;
   EXPECT_FALSE(std::filesystem::exists(path));

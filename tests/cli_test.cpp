@@ -331,7 +331,8 @@ TEST_F(CliBadInput, MassMatrixWouldOverflow) {
   JsonBody c = b;
   c.parent = 0;
   write("bad.json", jsonModel({b, c}));
-  expectFailure("solve --model bad.json --out out.h5", "body 0 ('b0'): mass 1.7e+308 is beyond 1e+30");
+  expectFailure("solve --model bad.json --out out.h5",
+                "body 0 ('b0'): mass 1.7e+308 is beyond 1e+30");
   JsonBody d;
   d.inertia = "[[1e31, 0, 0], [0, 1e31, 0], [0, 0, 1e31]]";
   write("big.json", jsonModel({d}));
@@ -416,10 +417,10 @@ TEST_F(CliRoundTrip, FlopsPrintsEveryStageOfEverySolver) {
   const CliRun r = minv("flops --solver all --topology serial --n 100");
   ASSERT_EQ(r.status, 0) << r.err;
   for (const std::string& name : solverNames()) EXPECT_NE(r.out.find(name), std::string::npos);
-  for (const char* stage : {"spatial axes", "isolated inertias", "articulated inertias",
-                            "impulse propagation", "velocity updates", "composite inertias",
-                            "elements of M", "factorization", "inverse from factor",
-                            "documented, LAWN 41", "abi/proc"})
+  for (const char* stage :
+       {"spatial axes", "isolated inertias", "articulated inertias", "impulse propagation",
+        "velocity updates", "composite inertias", "elements of M", "factorization",
+        "inverse from factor", "documented, LAWN 41", "abi/proc"})
     EXPECT_NE(r.out.find(stage), std::string::npos) << stage;
   // ltdl's factorization of a 100-chain: Σ d(d−1)/2 = 101·100·99/6 = 166650 multiplications.
   EXPECT_NE(r.out.find(" 166650 "), std::string::npos) << r.out;
@@ -459,12 +460,14 @@ TEST_F(CliRoundTrip, SolveAtAGivenConfiguration) {
 TEST_F(CliBadInput, BadConfigurationFile) {
   ASSERT_EQ(minv("generate --topology serial --n 3 --out arm.json").status, 0);
   write("short.txt", "0.1 0.2\n");
-  expectFailure("solve --model arm.json --q short.txt --out out.h5", "2 numbers, the model needs nq = 3");
+  expectFailure("solve --model arm.json --q short.txt --out out.h5",
+                "2 numbers, the model needs nq = 3");
   write("unknown.txt", "elbow 1\n");
   expectFailure("solve --model arm.json --q unknown.txt --out out.h5", "unknown q name 'elbow'");
   write("nan.txt", "0 nan 0\n");
   expectFailure("solve --model arm.json --q nan.txt --out out.h5", "is not a finite number");
-  expectFailure("solve --model arm.json --q missing.txt --out out.h5", "cannot open configuration file");
+  expectFailure("solve --model arm.json --q missing.txt --out out.h5",
+                "cannot open configuration file");
   expectFailure("solve --model arm.json --q short.txt --q-seed 3 --out out.h5", "excludes");
 }
 
@@ -488,8 +491,9 @@ TEST_F(CliBadInput, DuplicateJointNames) {
   for (const char* name : {"\"j1\"", "\"j2\""}) text.replace(text.find(name), 4, "\"jj\"");
   text.replace(text.find("\"j0\""), 4, "\"jj\"");
   write("dup.json", text);
-  expectFailure("solve --model dup.json --out out.h5",
-                "joint of body 1 ('b1'): the joint name 'jj' is already used by the joint of body 0");
+  expectFailure(
+      "solve --model dup.json --out out.h5",
+      "joint of body 1 ('b1'): the joint name 'jj' is already used by the joint of body 0");
 }
 
 }  // namespace

@@ -29,7 +29,10 @@ Joint revoluteZ(Eigen::Vector3d at) {
 void expectAllSolversInvert(const Model& model, const Eigen::VectorXd& q,
                             const Eigen::MatrixXd& M) {
   const Eigen::MatrixXd ref = M.inverse();
-  const Eigen::MatrixXd R = Eigen::MatrixXd::Random(model.nv(), 3);
+  // Seeded right-hand sides (Eigen's Random would differ from run to run).
+  const Eigen::MatrixXd R = Eigen::MatrixXd::NullaryExpr(
+      model.nv(), 3,
+      [](Eigen::Index i, Eigen::Index j) { return std::sin(1.0 + 3.0 * i + 7.0 * j); });
   for (const SolverEntry& e : solverRegistry()) {
     auto solver = e.make();
     solver->prepare(model);

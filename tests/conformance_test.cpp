@@ -3,11 +3,16 @@
 // n up to 300). The checks and their bounds are the library's, so that a solver from outside
 // the repository gets exactly these through checkSolver(). One test per (solver, case); a
 // solver that does not support a case is skipped with its reason.
+//
+// MINV_CONFORMANCE_MAX_N=N (environment) keeps the cases with n ≤ N: the sanitizer run of
+// scripts/test sets 100, where the n = 300 cases would take most of its time; every solver still
+// runs on every kind of tree.
 #include "solvers/conformance.hpp"
 
 #include <gtest/gtest.h>
 
 #include <Eigen/Cholesky>
+#include <cstdlib>
 
 #include "core/crba.hpp"
 #include "generators/random_tree.hpp"
@@ -41,9 +46,16 @@ std::string caseName(const ::testing::TestParamInfo<Conformance::ParamType>& inf
   return testNameOf(std::get<0>(info.param) + "_" + std::get<1>(info.param).name);
 }
 
+// The cases, trimmed by MINV_CONFORMANCE_MAX_N.
+std::vector<ConformanceCase> suiteCases() {
+  ConformanceOptions o;
+  if (const char* n = std::getenv("MINV_CONFORMANCE_MAX_N")) o.max_n = std::atoi(n);
+  return conformanceCases(o);
+}
+
 INSTANTIATE_TEST_SUITE_P(Registry, Conformance,
                          ::testing::Combine(::testing::ValuesIn(solverNames()),
-                                            ::testing::ValuesIn(conformanceCases())),
+                                            ::testing::ValuesIn(suiteCases())),
                          caseName);
 
 // The library's report: a registered solver passes with every case run; a deliberately wrong

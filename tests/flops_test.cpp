@@ -1,10 +1,11 @@
 // The counting scalar and the measured operation counts: closed-form counts of the sparse and
 // naive factorizations, exact polynomial fits, the same numbers as double, thread safety.
+#include "experiments/lib/flops.hpp"
+
 #include <gtest/gtest.h>
 
 #include <thread>
 
-#include "experiments/lib/flops.hpp"
 #include "solvers/abi.hpp"
 #include "solvers/ltdl.hpp"
 #include "solvers/naive.hpp"
@@ -54,8 +55,8 @@ TEST(Flops, NaiveCholeskyIsTheTextbookCubic) {
   // Multiplications (n³ − n)/6, additions the same, n(n − 1)/2 divisions, n square roots.
   for (int n : {1, 5, 17, 40}) {
     const Model model = randomTree({Topology::Serial, n, 3, false, JointSet::Revolute});
-    const FlopCounts c = stage(countSolver("naive", model, randomConfiguration(model, 1)),
-                               "factorization");
+    const FlopCounts c =
+        stage(countSolver("naive", model, randomConfiguration(model, 1)), "factorization");
     const std::uint64_t N = n;
     EXPECT_EQ(c.mul, (N * N * N - N) / 6) << n;
     EXPECT_EQ(c.add, (N * N * N - N) / 6) << n;
@@ -90,8 +91,12 @@ void expectExactPolynomial(const std::string& solver, int degree) {
     }
 }
 
-TEST(Flops, AbiOnChainsIsExactlyQuadratic) { expectExactPolynomial("abi", 2); }
-TEST(Flops, NaiveOnChainsIsExactlyCubic) { expectExactPolynomial("naive", 3); }
+TEST(Flops, AbiOnChainsIsExactlyQuadratic) {
+  expectExactPolynomial("abi", 2);
+}
+TEST(Flops, NaiveOnChainsIsExactlyCubic) {
+  expectExactPolynomial("naive", 3);
+}
 
 TEST(Flops, CountedGivesTheSameNumbersAsDouble) {
   const Model model = randomTree({Topology::Branched, 30, 4, true, JointSet::Mixed});

@@ -32,6 +32,40 @@ ContactProblem randomProblem(int nc, int rank, std::uint64_t seed) {
   return p;
 }
 
+// How far λ (3nc: n, t1, t2 per contact) lies outside the linearised cone, from λ alone: λn ≥ 0
+// and the tangential impulse inside the regular k-gon of circumradius μλn with vertices at
+// θ_j = 2πj/k, i.e. on the inner side of each edge (outward normal at 2π(j + ½)/k, apothem
+// μλn cos(π/k)). Independent of the solver's generators W and of β.
+double outsideCone(const Eigen::VectorXd& lambda, double mu, int k) {
+  double worst = 0;
+  for (int c = 0; c < lambda.size() / 3; ++c) {
+    const double n = lambda(3 * c), t1 = lambda(3 * c + 1), t2 = lambda(3 * c + 2);
+    worst = std::max(worst, -n);
+    for (int j = 0; j < k; ++j) {
+      const double phi = 2 * M_PI * (j + 0.5) / k;
+      worst = std::max(worst, t1 * std::cos(phi) + t2 * std::sin(phi) -
+                                  mu * std::max(n, 0.0) * std::cos(M_PI / k));
+    }
+  }
+  return worst;
+}
+
+// The oracle itself: inside, on and outside the cone.
+TEST(SimContactSolver, ConeMembershipOracle) {
+  const double mu = 0.5;
+  Eigen::VectorXd vertex(3), beyond(3), pulled(3);
+  vertex << 2, mu * 2, 0;  // a vertex of the 4-gon: on the boundary
+  beyond << 2, mu * 2 * 1.01, 0;
+  pulled << -1e-3, 0, 0;  // a pulling normal impulse
+  EXPECT_LT(outsideCone(vertex, mu, 4), 1e-15);
+  EXPECT_GT(outsideCone(beyond, mu, 4), 1e-3);
+  EXPECT_GT(outsideCone(pulled, mu, 4), 0);
+  // A point on the circular cone between two generators lies outside the inscribed 4-gon.
+  Eigen::VectorXd circle(3);
+  circle << 1, mu * std::cos(M_PI / 4), mu * std::sin(M_PI / 4);
+  EXPECT_GT(outsideCone(circle, mu, 4), 0.1 * mu);
+}
+
 double objective(const Eigen::MatrixXd& G, const Eigen::VectorXd& g0, const Eigen::VectorXd& x) {
   return 0.5 * x.dot(G * x) + g0.dot(x);
 }
@@ -49,7 +83,8 @@ TEST(SimContactSolver, ResidualsUnderToleranceOnRandomInstances) {
     EXPECT_TRUE(s.residuals.converged) << trial;
     EXPECT_LT(s.residuals.kkt, 1e-9 * scale) << trial;
     EXPECT_LT(s.residuals.penetration, 1e-9 * scale) << trial;
-    EXPECT_LT(s.residuals.cone, 1e-12) << trial;
+    // λ itself in the cone (not only λ = Wβ with β ≥ 0, which holds by construction).
+    EXPECT_LT(outsideCone(s.lambda, p.mu, p.k), 1e-12 * std::max(1.0, s.lambda.norm())) << trial;
     EXPECT_LT(s.residuals.complementarity, 1e-9 * scale * (1 + s.beta.norm())) << trial;
   }
 }

@@ -72,8 +72,8 @@ TEST(SimDynamics, AbaMomentumRateIsGravityWrench) {
   Kinematics<double> kp(m), km(m);
   computeKinematics<double>(m, qp, kp);
   computeKinematics<double>(m, qm, km);
-  const Vec6<double> dh = (spatialMomentum(m, kp, v + eps * qdd) -
-                           spatialMomentum(m, km, v - eps * qdd)) / (2 * eps);
+  const Vec6<double> dh =
+      (spatialMomentum(m, kp, v + eps * qdd) - spatialMomentum(m, km, v - eps * qdd)) / (2 * eps);
   Vec6<double> ext = Vec6<double>::Zero();
   for (int i = 0; i < m.nb(); ++i) {
     const Eigen::Vector3d com = kin.X[i].p + kin.X[i].R * m.body(i).com;

@@ -124,25 +124,24 @@ TEST(Slurm, JobArrayShardsMergeToTheOneProcessRun) {
   c.dir = fs::temp_directory_path() / ("minv_slurm_" + std::to_string(getpid()));
   fs::create_directories(c.dir);
   fs::permissions(c.dir, fs::perms::owner_all);
-  {
-    std::ofstream(c.dir / "start.sh") << kStart;
-  }
+  { std::ofstream(c.dir / "start.sh") << kStart; }
   const int rc = sh("bash " + (c.dir / "start.sh").string() + " " + c.dir.string() + " " +
-                    std::to_string(freePort()) + " " + std::to_string(freePort()) +
-                    " > " + (c.dir / "start.log").string() + " 2>&1");
+                    std::to_string(freePort()) + " " + std::to_string(freePort()) + " > " +
+                    (c.dir / "start.log").string() + " 2>&1");
   if (rc != 0) {
     std::string why = slurp(c.dir / "reason");
     if (why.empty()) why = "start script failed: " + slurp(c.dir / "start.log");
     std::printf("Slurm test skipped: %s\n", why.c_str());
     GTEST_SKIP() << why;
   }
-  const std::string env = "SLURM_CONF=" + (c.dir / "slurm.conf").string() + " PATH=$PATH:/usr/sbin ";
+  const std::string env =
+      "SLURM_CONF=" + (c.dir / "slurm.conf").string() + " PATH=$PATH:/usr/sbin ";
   const fs::path out = c.dir / "out";
   const std::string script = fs::path(MINV_SOURCE_DIR) / "scripts" / "slurm_sweep.sh";
-  const int sb = sh("cd " + std::string(MINV_SOURCE_DIR) + " && " + env + "timeout 150 sbatch --wait --array=0-1 -o " +
-                    (c.dir / "task_%a.out").string() + " " + script + " --mode tiny --build " +
-                    bin_dir.string() + " --out-dir " + out.string() + " > " +
-                    (c.dir / "sbatch.log").string() + " 2>&1");
+  const int sb = sh("cd " + std::string(MINV_SOURCE_DIR) + " && " + env +
+                    "timeout 150 sbatch --wait --array=0-1 -o " + (c.dir / "task_%a.out").string() +
+                    " " + script + " --mode tiny --build " + bin_dir.string() + " --out-dir " +
+                    out.string() + " > " + (c.dir / "sbatch.log").string() + " 2>&1");
   ASSERT_EQ(sb, 0) << slurp(c.dir / "sbatch.log") << slurp(c.dir / "task_0.out")
                    << slurp(c.dir / "task_1.out") << slurp(c.dir / "slurmd.log");
   const fs::path s0 = out / "shards" / "timing.0of2.h5", s1 = out / "shards" / "timing.1of2.h5";
@@ -158,7 +157,8 @@ TEST(Slurm, JobArrayShardsMergeToTheOneProcessRun) {
   ASSERT_EQ(merged.size(), one.size());
   for (const auto& [name, rec] : one) {
     ASSERT_TRUE(merged.count(name)) << name;
-    for (const char* key : {"family", "solver", "topology", "base", "n", "nv", "m", "threads", "seed", "status"})
+    for (const char* key :
+         {"family", "solver", "topology", "base", "n", "nv", "m", "threads", "seed", "status"})
       EXPECT_EQ(merged.at(name).attrs.at(key), rec.attrs.at(key)) << name << " " << key;
     EXPECT_EQ(merged.at(name).parent, rec.parent) << name;
   }

@@ -1,6 +1,8 @@
 // The timing harness: sweep definition, shards, skip table, merge, and a sweep killed with
 // SIGKILL midway that resumes without losing or rerunning a finished point. Runs the real
 // bench_timing binary (built next to minv) on the tiny sweep.
+#include "experiments/lib/timing.hpp"
+
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -16,7 +18,6 @@
 #include <string>
 #include <thread>
 
-#include "experiments/lib/timing.hpp"
 #include "solvers/solver.hpp"
 
 namespace fs = std::filesystem;
@@ -24,7 +25,9 @@ using namespace minv;
 
 namespace {
 
-fs::path benchBinary() { return fs::path(MINV_CLI).parent_path() / "bench_timing"; }
+fs::path benchBinary() {
+  return fs::path(MINV_CLI).parent_path() / "bench_timing";
+}
 
 fs::path tempDir(const std::string& tag) {
   fs::path d = fs::temp_directory_path() /
@@ -56,8 +59,8 @@ int countFinishedLines(const fs::path& log) {
 }
 
 // Attributes that describe the point itself (not when/where it was measured).
-const char* kIdentity[] = {"family", "solver", "topology", "base", "n", "nv", "nb", "max_depth",
-                           "m", "threads", "seed", "mode", "status"};
+const char* kIdentity[] = {"family",    "solver", "topology", "base", "n",    "nv",    "nb",
+                           "max_depth", "m",      "threads",  "seed", "mode", "status"};
 
 }  // namespace
 
@@ -73,7 +76,8 @@ TEST(Timing, ShardsPartitionTheSweep) {
   for (const char* mode : {"tiny", "quick", "full"}) {
     const std::vector<TimingPoint> all = sweepPoints(timingSweep(mode));
     std::set<std::string> names;
-    for (const auto& p : all) EXPECT_TRUE(names.insert(p.name()).second) << "duplicate " << p.name();
+    for (const auto& p : all)
+      EXPECT_TRUE(names.insert(p.name()).second) << "duplicate " << p.name();
     std::set<std::string> seen;
     std::size_t total = 0;
     for (int i = 0; i < 3; ++i) {
@@ -161,7 +165,8 @@ TEST(Timing, LogSpaced) {
 // A sweep killed (SIGKILL) after some points finished keeps them, and the rerun completes the
 // sweep without rerunning them: their raw times are bit-identical.
 TEST(Timing, KilledSweepResumesWithoutLosingPoints) {
-  ASSERT_TRUE(fs::exists(benchBinary())) << benchBinary() << " is missing: build the bench_timing target";
+  ASSERT_TRUE(fs::exists(benchBinary()))
+      << benchBinary() << " is missing: build the bench_timing target";
   const fs::path dir = tempDir("resume");
   const fs::path out = dir / "t.h5", log = dir / "first.log";
   const std::size_t total = sweepPoints(timingSweep("tiny")).size();
@@ -184,7 +189,8 @@ TEST(Timing, KilledSweepResumesWithoutLosingPoints) {
   kill(child, SIGKILL);
   int status = 0;
   waitpid(child, &status, 0);
-  ASSERT_TRUE(WIFSIGNALED(status)) << "the sweep finished before it could be killed:\n" << slurp(log);
+  ASSERT_TRUE(WIFSIGNALED(status)) << "the sweep finished before it could be killed:\n"
+                                   << slurp(log);
   const auto before = readPoints(out.string());
   ASSERT_GE(before.size(), 2u);
   ASSERT_LT(before.size(), total) << "nothing left to resume";
@@ -230,7 +236,8 @@ TEST(Timing, MergedShardsEqualOneProcess) {
   ASSERT_EQ(merged.size(), one.size());
   for (const auto& [name, rec] : one) {
     ASSERT_TRUE(merged.count(name)) << name;
-    for (const char* key : kIdentity) EXPECT_EQ(merged.at(name).attrs.at(key), rec.attrs.at(key)) << name << " " << key;
+    for (const char* key : kIdentity)
+      EXPECT_EQ(merged.at(name).attrs.at(key), rec.attrs.at(key)) << name << " " << key;
     EXPECT_EQ(merged.at(name).parent, rec.parent) << name;
     EXPECT_EQ(merged.at(name).real_s.size(), rec.real_s.size()) << name;
   }

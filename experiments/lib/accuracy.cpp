@@ -13,9 +13,9 @@
 
 #include "core/crba.hpp"
 #include "core/kinematics.hpp"
+#include "experiments/lib/budget.hpp"
 #include "experiments/lib/h5writer.hpp"
 #include "experiments/lib/provenance.hpp"
-#include "experiments/lib/budget.hpp"
 #include "generators/random_tree.hpp"
 #include "solvers/solver.hpp"
 
@@ -95,8 +95,9 @@ void runAccuracySweep(const AccuracySweep& sweep, const std::string& path, std::
   h5.setAttribute("/", "experiment", "accuracy");
   h5.setAttribute("/", "mode", sweep.mode);
   h5.setAttribute("/", "seed", sweep.seed);
-  h5.setAttribute("/", "reference",
-                  "long double (x87 80-bit, 64-bit mantissa) CRBA + Eigen::LLT, X_ref = LLT.solve(I)");
+  h5.setAttribute(
+      "/", "reference",
+      "long double (x87 80-bit, 64-bit mantissa) CRBA + Eigen::LLT, X_ref = LLT.solve(I)");
   writeProvenance(h5, "/");
   h5.createGroup("points");
   h5.createGroup("problems");
@@ -108,7 +109,8 @@ void runAccuracySweep(const AccuracySweep& sweep, const std::string& path, std::
       std::snprintf(tag, sizeof tag, "%s.n%05d", topo.c_str(), n);
       const std::string problem = std::string("problems/") + tag;
       bool all_done = h5.hasGroup(problem);
-      for (const std::string& s : solvers) all_done &= h5.hasGroup("points/" + std::string(tag) + "." + s);
+      for (const std::string& s : solvers)
+        all_done &= h5.hasGroup("points/" + std::string(tag) + "." + s);
       if (all_done) continue;
       const Model model = randomTree({topologyFromName(topo), n, sweep.seed, false});
       const Eigen::VectorXd q = randomConfiguration(model, sweep.seed);
@@ -136,7 +138,8 @@ void runAccuracySweep(const AccuracySweep& sweep, const std::string& path, std::
         std::unique_ptr<Solver> solver = makeSolver(s);
         std::string why;
         std::optional<std::string> skip = skipReason(s, "accuracy", topo, n, sweep.mode);
-        if (!skip && !solver->supports(model, &why)) skip = "solver does not support the tree: " + why;
+        if (!skip && !solver->supports(model, &why))
+          skip = "solver does not support the tree: " + why;
         const std::string g = h5.beginPoint(name);
         h5.setAttribute(g, "family", "accuracy");
         h5.setAttribute(g, "solver", s);
@@ -167,8 +170,9 @@ void runAccuracySweep(const AccuracySweep& sweep, const std::string& path, std::
         h5.setAttribute(g, "residual_identity", residual_identity);
         h5.setAttribute(g, "error", error);
         h5.endPoint(name);
-        std::snprintf(line, sizeof line, "%s %-7s cond %.2e residual %.2e residual_I %.2e error %.2e",
-                      tag, s.c_str(), ref.cond, residual, residual_identity, error);
+        std::snprintf(line, sizeof line,
+                      "%s %-7s cond %.2e residual %.2e residual_I %.2e error %.2e", tag, s.c_str(),
+                      ref.cond, residual, residual_identity, error);
         log << line << std::endl;
       }
     }

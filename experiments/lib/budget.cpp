@@ -47,8 +47,7 @@ const std::vector<SkipRule>& skipRules() {
 }
 
 std::optional<std::string> skipReason(const std::string& solver, const std::string& family,
-                                      const std::string& topology, int n,
-                                      const std::string& mode) {
+                                      const std::string& topology, int n, const std::string& mode) {
   auto match = [](const char* rule, const std::string& v) {
     return std::string(rule) == "*" || v == rule;
   };
@@ -58,8 +57,8 @@ std::optional<std::string> skipReason(const std::string& solver, const std::stri
     // The first matching rule decides.
     const int cap = mode == "full" ? r.full_max_n : r.quick_max_n;
     if (n > cap)
-      return std::string(r.reason) + " (" + mode + " mode caps " + solver + " at n = " +
-             std::to_string(cap) + ")";
+      return std::string(r.reason) + " (" + mode + " mode caps " + solver +
+             " at n = " + std::to_string(cap) + ")";
     return std::nullopt;
   }
   return std::nullopt;

@@ -31,7 +31,6 @@ const std::vector<SkipRule>& skipRules();
 
 // The reason a point is not measured, with the mode's cap, or nothing.
 std::optional<std::string> skipReason(const std::string& solver, const std::string& family,
-                                      const std::string& topology, int n,
-                                      const std::string& mode);
+                                      const std::string& topology, int n, const std::string& mode);
 
 }  // namespace minv

@@ -63,8 +63,8 @@ CentipedeRunResult runCentipede(const CentipedeRunOptions& o, std::ostream& log,
   const int S = o.segments, L = c.legs();
   const int every = o.frames > 0 ? std::max(1, o.steps / o.frames) : 0;
   const int F = o.frames > 0 ? o.steps / every + 1 : 0;
-  Eigen::MatrixXd stepTimes(o.steps, 5), com(F, 3), seg(F, 3 * S), hips(F, 3 * L),
-      knees(F, 3 * L), tipsXyz(F, 3 * L);
+  Eigen::MatrixXd stepTimes(o.steps, 5), com(F, 3), seg(F, 3 * S), hips(F, 3 * L), knees(F, 3 * L),
+      tipsXyz(F, 3 * L);
   Eigen::VectorXd frameTime(F);
   std::vector<int> contacts(o.steps), iterations(o.steps);
   auto record = [&](int f) {
@@ -102,13 +102,15 @@ CentipedeRunResult runCentipede(const CentipedeRunOptions& o, std::ostream& log,
     r.max_kkt = std::max(r.max_kkt, res.kkt);
     r.max_pgs_iterations = std::max(r.max_pgs_iterations, res.iterations);
     r.unconverged_steps += res.converged ? 0 : 1;
-    if (!sim.v().allFinite()) throw std::runtime_error("the simulation diverged (non-finite velocity)");
+    if (!sim.v().allFinite())
+      throw std::runtime_error("the simulation diverged (non-finite velocity)");
     if (every > 0 && (k + 1) % every == 0) record((k + 1) / every);
     if (progressEvery > 0 && ((k + 1) % progressEvery == 0 || k + 1 == o.steps)) {
-      const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+      const double wall =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
       log << fmt("step %6.0f", k + 1) << "/" << o.steps
-          << fmt("  t=%.4f s  contacts=%2.0f  head x=%+.4f m  wall %.2f s", sim.time(),
-                 contacts[k], sim.q()(0) - head0.x(), wall)
+          << fmt("  t=%.4f s  contacts=%2.0f  head x=%+.4f m  wall %.2f s", sim.time(), contacts[k],
+                 sim.q()(0) - head0.x(), wall)
           << "\n";
       log.flush();
     }

@@ -35,8 +35,8 @@ struct CentipedeRunOptions {
   std::string solver = "abi";
   double mu = 0.8;
   int friction_dirs = 4;
-  int frames = 0;          // trajectory frames to record (0: none)
-  int progress_lines = 10; // progress lines on the log (0: none)
+  int frames = 0;           // trajectory frames to record (0: none)
+  int progress_lines = 10;  // progress lines on the log (0: none)
 };
 
 struct CentipedeRunResult {

@@ -4,7 +4,7 @@
 //
 //   minv generate --topology serial|branched --n N [--seed S] [--floating-base]
 //                 [--joints revolute|mixed] --out FILE.json|FILE.urdf
-//   minv solve --model FILE [--floating-base] [--solver NAME|all] [--q-seed S | --q FILE]
+//   minv solve --model FILE [--free-root] [--solver NAME|all] [--q-seed S | --q FILE]
 //              [--rhs M] [--rhs-seed S] --out FILE.h5
 //   minv generate --topology centipede --segments S [--segment-joint yaw|spherical] --out FILE
 //   minv simulate centipede [--segments S] [--steps K] [--dt H] [--solver NAME|test-impulse]
@@ -20,7 +20,7 @@
 //   minv flops [--solver NAME|all] --topology serial|branched --n N [--floating-base]
 //              [--joints revolute|mixed] [--rhs M] [--seed S]
 //   minv experiment flops [--max-n N] [--seed S] --out FILE.h5
-//   minv experiment accuracy [--mode quick|full|tiny] --out FILE.h5   (experiments/lib/accuracy.hpp)
+//   minv experiment accuracy [--mode quick|full|tiny] --out FILE.h5 (experiments/lib/accuracy.hpp)
 //   minv merge --out FILE.h5 SHARD.h5…   (join timing shard files; experiments/lib/timing.hpp)
 // (build/bench_timing is the same as `minv time`.)
 //
@@ -51,7 +51,10 @@
 // solve_residual; the root also holds cond, cond₂(M) from its eigenvalues. A solver
 // that does not support the tree is skipped under `all` (its group holds only `skipped`,
 // the reason) and is an error when named.
+#include "experiments/lib/cli.hpp"
+
 #include <CLI/CLI.hpp>
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -63,21 +66,17 @@
 #include <string>
 #include <vector>
 
-#include <Eigen/Eigenvalues>
-
 #include "core/crba.hpp"
-#include "experiments/lib/cli.hpp"
-
 #include "experiments/lib/accuracy.hpp"
-#include "experiments/lib/gbench.hpp"
+#include "experiments/lib/centipede_run.hpp"
 #include "experiments/lib/flops.hpp"
+#include "experiments/lib/gbench.hpp"
 #include "experiments/lib/h5writer.hpp"
 #include "experiments/lib/provenance.hpp"
 #include "experiments/lib/timing.hpp"
 #include "generators/centipede.hpp"
 #include "generators/model_io.hpp"
 #include "generators/random_tree.hpp"
-#include "experiments/lib/centipede_run.hpp"
 #include "solvers/conformance.hpp"
 #include "solvers/solver.hpp"
 
@@ -137,7 +136,8 @@ std::string topologyOf(const Model& model) {
 int runGenerate(const GenerateOptions& o) {
   checkOutputDirectory(o.out);
   if (o.topology == "centipede") {
-    if (o.segments < 1) throw std::invalid_argument("--segments must be at least 1 for a centipede");
+    if (o.segments < 1)
+      throw std::invalid_argument("--segments must be at least 1 for a centipede");
     CentipedeOptions co;
     co.segments = o.segments;
     co.segment_joint = segmentJointFromName(o.segment_joint);
@@ -252,8 +252,8 @@ int runSolve(const SolveOptions& o) {
   const std::vector<const SolverEntry*> solvers = selectSolvers(o.solver);
   checkOutputDirectory(o.out);
   const Model model = loadModel(o.model, o.floating_base);
-  const Eigen::VectorXd q = o.q_file.empty() ? randomConfiguration(model, o.q_seed)
-                                              : loadConfiguration(model, o.q_file);
+  const Eigen::VectorXd q =
+      o.q_file.empty() ? randomConfiguration(model, o.q_seed) : loadConfiguration(model, o.q_file);
   model.checkConfiguration(q);
   const Eigen::MatrixXd M = massMatrix(model, q);
   if (!M.allFinite()) throw std::runtime_error("the mass matrix M has non-finite entries");
@@ -286,8 +286,8 @@ int runSolve(const SolveOptions& o) {
   writeProvenance(h5, "/");
 
   // One row per solver.
-  const std::string q_from = o.q_file.empty() ? "q_seed " + std::to_string(o.q_seed)
-                                               : "q from " + o.q_file;
+  const std::string q_from =
+      o.q_file.empty() ? "q_seed " + std::to_string(o.q_seed) : "q from " + o.q_file;
   std::printf("# %s\n# model %s: %d bodies, nv %d, max depth %d, %s, cond(M) %.2e\n",
               provenanceSummary().c_str(), o.model.c_str(), model.nb(), model.nv(),
               model.maxDepth(), q_from.c_str(), cond);
@@ -314,11 +314,12 @@ struct FlopsOptions {
 // flops: per-stage operation counts of one or every solver on one random tree.
 int runFlops(const FlopsOptions& o) {
   const std::vector<const SolverEntry*> solvers = selectSolvers(o.solver);
-  const Model model = randomTree({topologyFromName(o.topology), o.n, o.seed, o.floating_base,
-                                  jointSetFromName(o.joints)});
+  const Model model = randomTree(
+      {topologyFromName(o.topology), o.n, o.seed, o.floating_base, jointSetFromName(o.joints)});
   const Eigen::VectorXd q = randomConfiguration(model, o.seed);
   std::printf("# %s tree, %d bodies, nv %d, max depth %d, %s; counts for %s\n", o.topology.c_str(),
-              model.nb(), model.nv(), model.maxDepth(), o.floating_base ? "floating base" : "fixed base",
+              model.nb(), model.nv(), model.maxDepth(),
+              o.floating_base ? "floating base" : "fixed base",
               o.rhs > 0 ? ("M^-1 R, " + std::to_string(o.rhs) + " columns").c_str() : "M^-1");
   for (const SolverEntry* e : solvers) {
     std::printf("\n");
@@ -395,16 +396,19 @@ int runSimulate(SimulateOptions o) {
   std::unique_ptr<H5Writer> h5;
   if (!o.out.empty()) h5 = std::make_unique<H5Writer>(o.out);
   const sim::CentipedeRunResult r = sim::runCentipede(o.run, std::cout, h5.get(), "/");
-  std::printf("times (s): dynamics %.3f  collision %.3f  contact matrices %.3f  contact solve "
-              "%.3f  update %.3f  total %.3f\n",
-              r.times.dynamics, r.times.collision, r.times.matrices, r.times.solve, r.times.update,
-              r.times.total());
-  std::printf("contact residuals (max): penetration %.2e m/s  cone %.2e  complementarity %.2e  "
-              "kkt %.2e; pgs iterations max %d, unconverged steps %d\n",
-              r.max_penetration, r.max_cone, r.max_complementarity, r.max_kkt,
-              r.max_pgs_iterations, r.unconverged_steps);
-  std::printf("net displacement: head dx=%+.4f m dy=%+.4f m; centre of mass dx=%+.4f m dy=%+.4f m\n",
-              r.head_dx, r.head_dy, r.com_dx, r.com_dy);
+  std::printf(
+      "times (s): dynamics %.3f  collision %.3f  contact matrices %.3f  contact solve "
+      "%.3f  update %.3f  total %.3f\n",
+      r.times.dynamics, r.times.collision, r.times.matrices, r.times.solve, r.times.update,
+      r.times.total());
+  std::printf(
+      "contact residuals (max): penetration %.2e m/s  cone %.2e  complementarity %.2e  "
+      "kkt %.2e; pgs iterations max %d, unconverged steps %d\n",
+      r.max_penetration, r.max_cone, r.max_complementarity, r.max_kkt, r.max_pgs_iterations,
+      r.unconverged_steps);
+  std::printf(
+      "net displacement: head dx=%+.4f m dy=%+.4f m; centre of mass dx=%+.4f m dy=%+.4f m\n",
+      r.head_dx, r.head_dy, r.com_dx, r.com_dy);
   if (h5) {
     writeProvenance(*h5, "/");
     h5->commit();
@@ -478,8 +482,8 @@ int runTime(const TimeOptions& o, const std::string& program) {
   if (o.out.empty()) throw std::invalid_argument("--out is required");
   checkOutputDirectory(o.out);
   std::cout << "# " << provenanceSummary() << "\n# sweep " << sweep.mode << ", shard " << o.shard
-            << ", min_time " << sweep.min_time << " s, " << sweep.repetitions
-            << " repetitions -> " << o.out << std::endl;
+            << ", min_time " << sweep.min_time << " s, " << sweep.repetitions << " repetitions -> "
+            << o.out << std::endl;
   const SweepStats st = runTimingSweep(sweep, shard, o.out, measureWithGoogleBenchmark, std::cout);
   std::cout << program << ": " << st.measured << " measured, " << st.skipped << " skipped, "
             << st.resumed << " already in " << o.out << std::endl;
@@ -515,7 +519,9 @@ int runCli(int argc, char** argv, const std::string& program) {
                   "Number of jointed links, not counting a floating base (> 0; required "
                   "except for --topology centipede, which takes --segments)");
   gen->add_option("--seed", g.seed, "Random seed")->check(kNonNegative)->capture_default_str();
-  gen->add_flag("--floating-base", g.floating_base, "Add a floating base body");
+  gen->add_flag("--floating-base", g.floating_base,
+                "Add a floating base: a new body 0 on a 6-DOF joint above the n links "
+                "(nv = n + 6 for revolute links)");
   gen->add_option("--joints", g.joints, "revolute | mixed (revolute, prismatic, spherical)")
       ->capture_default_str();
   gen->add_option("--out", g.out, "Output model file, .json or .urdf")->required();
@@ -524,7 +530,9 @@ int runCli(int argc, char** argv, const std::string& program) {
   SolveOptions s;
   CLI::App* sol = app.add_subcommand("solve", "Invert M with one or all solvers; write HDF5");
   sol->add_option("--model", s.model, "Model file: .json, .urdf or .xml (MJCF)")->required();
-  sol->add_flag("--floating-base", s.floating_base, "Give the model a floating base");
+  sol->add_flag("--free-root", s.floating_base,
+                "Set the model's root body free: its joint to the world becomes a 6-DOF floating "
+                "joint (no body is added; a model that floats already is unchanged)");
   sol->add_option("--solver", s.solver, "Solver name (see `minv solvers`) or all")
       ->capture_default_str();
   CLI::Option* qseed = sol->add_option("--q-seed", s.q_seed, "Seed of the random configuration q")
@@ -547,7 +555,8 @@ int runCli(int argc, char** argv, const std::string& program) {
 
   // check
   CheckOptions ck;
-  CLI::App* chk = app.add_subcommand("check", "Run the conformance checks on solvers (exit 1 on a failure)");
+  CLI::App* chk =
+      app.add_subcommand("check", "Run the conformance checks on solvers (exit 1 on a failure)");
   chk->add_option("--solver", ck.solver, "Solver name or all")->capture_default_str();
   chk->add_option("--max-n", ck.max_n, "Largest tree (cases n = 1, 2, 3, 7, 32, 100, 300)")
       ->capture_default_str();
@@ -570,7 +579,8 @@ int runCli(int argc, char** argv, const std::string& program) {
   fl->add_option("--solver", f.solver, "Solver name or all")->capture_default_str();
   fl->add_option("--topology", f.topology, "serial | branched")->required();
   fl->add_option("--n", f.n, "Number of jointed links (> 0)")->required();
-  fl->add_flag("--floating-base", f.floating_base, "Add a floating base body");
+  fl->add_flag("--floating-base", f.floating_base,
+               "Add a floating base: a new body 0 on a 6-DOF joint above the n links");
   fl->add_option("--joints", f.joints, "revolute | mixed")->capture_default_str();
   fl->add_option("--rhs", f.rhs, "Count M^-1 R with this many columns instead of M^-1")
       ->check(kNonNegative)
@@ -586,7 +596,8 @@ int runCli(int argc, char** argv, const std::string& program) {
   xfl->add_option("--seed", x.seed, "Random seed")->check(kNonNegative)->capture_default_str();
   xfl->add_option("--out", x.out, "Output HDF5 file")->required();
   AccuracyOptions xa;
-  CLI::App* xac = exp->add_subcommand("accuracy", "Residual and error vs a long-double reference, vs n");
+  CLI::App* xac =
+      exp->add_subcommand("accuracy", "Residual and error vs a long-double reference, vs n");
   xac->add_option("--mode", xa.mode, "quick | full | tiny")->capture_default_str();
   xac->add_option("--out", xa.out, "Output HDF5 file (appended to and resumed)")->required();
 
@@ -610,11 +621,13 @@ int runCli(int argc, char** argv, const std::string& program) {
   scen->add_option("--dt", sm.run.dt, "Step size (s)")->capture_default_str();
   scen->add_option("--solver", sm.run.solver, "Contact-space path: a solver name or test-impulse")
       ->capture_default_str();
-  scen->add_option("--segment-joint", sm.run.segment_joint, "yaw | spherical")->capture_default_str();
+  scen->add_option("--segment-joint", sm.run.segment_joint, "yaw | spherical")
+      ->capture_default_str();
   scen->add_option("--frames", sm.run.frames, "Trajectory frames to save")->capture_default_str();
   scen->add_option("--out", sm.out, "Output HDF5 file (optional)");
   CLI::App* ssw = simc->add_subcommand("sweep", "Figure 4: time per step vs segments and solver");
-  ssw->add_option("--segments", sm.sweep.segments, "Segment counts")->delimiter(',')
+  ssw->add_option("--segments", sm.sweep.segments, "Segment counts")
+      ->delimiter(',')
       ->capture_default_str();
   ssw->add_option("--solvers", sm.sweep.solvers, "Paths")->delimiter(',')->capture_default_str();
   ssw->add_option("--steps", sm.sweep.steps, "Time steps per run")->capture_default_str();

@@ -70,12 +70,12 @@ CpuId cpuId() {
   std::snprintf(sig, sizeof sig, "family 0x%x model 0x%x stepping %u", family, model, stepping);
   c.signature = sig;
   if (c.vendor == "AuthenticAMD") {
-    const char* uarch = family == 0x17   ? (model < 0x30 ? "Zen/Zen+" : "Zen 2")
-                        : family == 0x19 ? ((model >= 0x10 && model < 0x20) ||
-                                                    (model >= 0x60 && model < 0x80) ||
-                                                    (model >= 0xa0 && model < 0xb0)
-                                                ? "Zen 4"
-                                                : "Zen 3")
+    const char* uarch = family == 0x17 ? (model < 0x30 ? "Zen/Zen+" : "Zen 2")
+                        : family == 0x19
+                            ? ((model >= 0x10 && model < 0x20) || (model >= 0x60 && model < 0x80) ||
+                                       (model >= 0xa0 && model < 0xb0)
+                                   ? "Zen 4"
+                                   : "Zen 3")
                         : family == 0x1a ? "Zen 5"
                                          : nullptr;
     if (uarch) c.signature += std::string(" (") + uarch + ")";
@@ -180,9 +180,9 @@ void writeProvenance(H5Writer& writer, const std::string& group) {
 std::string provenanceSummary() {
   const Provenance p = collectProvenance();
   return "minv " + p.minv_version + " (" + p.git_sha + ", " + p.compiler + ", built for " +
-         p.build_isa + ") on " + p.cpu_model + " (" + p.cpu_vendor + " " + p.cpu_signature +
-         "; " + p.cpu_extensions + "), " + std::to_string(p.cpu_cores) + " cores; " + p.blas_library + ", " +
-         std::to_string(p.blas_threads) + " BLAS / " + std::to_string(p.omp_max_threads) +
+         p.build_isa + ") on " + p.cpu_model + " (" + p.cpu_vendor + " " + p.cpu_signature + "; " +
+         p.cpu_extensions + "), " + std::to_string(p.cpu_cores) + " cores; " + p.blas_library +
+         ", " + std::to_string(p.blas_threads) + " BLAS / " + std::to_string(p.omp_max_threads) +
          " OpenMP threads; " + p.hostname + " " + p.date_utc;
 }
 

@@ -30,7 +30,8 @@ std::vector<int> logSpaced(int lo, int hi, int per_octave) {
   std::vector<int> out;
   const double steps = std::log2(static_cast<double>(hi) / lo) * per_octave;
   for (int k = 0; k <= static_cast<int>(std::lround(steps)); ++k) {
-    const int v = static_cast<int>(std::lround(lo * std::exp2(static_cast<double>(k) / per_octave)));
+    const int v =
+        static_cast<int>(std::lround(lo * std::exp2(static_cast<double>(k) / per_octave)));
     if (v <= hi && (out.empty() || v != out.back())) out.push_back(v);
   }
   return out;
@@ -57,10 +58,11 @@ TimingSweep timingSweep(const std::string& mode) {
   }
   const bool full = mode == "full";
   SweepBlock pipeline{"pipeline", {}, {"serial", "branched"}, {false, true}, logSpaced(8, hi, 2)};
-  SweepBlock kernel{"kernel", {}, {"serial", "branched"}, {false}, logSpaced(8, hi, 1), {0, 1, 8, 64}};
+  SweepBlock kernel{"kernel",     {}, {"serial", "branched"}, {false}, logSpaced(8, hi, 1),
+                    {0, 1, 8, 64}};
   if (full) kernel.floating = {false, true};
-  SweepBlock threads{"threads", {"abi", "lapack"}, {"serial"}, {false}, logSpaced(64, hi, 1), {0},
-                     {1, 2, 4}};
+  SweepBlock threads{"threads", {"abi", "lapack"}, {"serial"}, {false}, logSpaced(64, hi, 1),
+                     {0},       {1, 2, 4}};
   s.blocks = {pipeline, kernel, threads};
   return s;
 }
@@ -71,7 +73,8 @@ std::vector<TimingPoint> sweepPoints(const TimingSweep& sweep) {
   for (const SweepBlock& b : sweep.blocks) {
     std::vector<std::string> solvers;
     for (const std::string& name : registered)
-      if (b.solvers.empty() || std::find(b.solvers.begin(), b.solvers.end(), name) != b.solvers.end())
+      if (b.solvers.empty() ||
+          std::find(b.solvers.begin(), b.solvers.end(), name) != b.solvers.end())
         solvers.push_back(name);
     for (const std::string& topo : b.topologies)
       for (bool fl : b.floating)
@@ -197,9 +200,15 @@ SweepStats runTimingSweep(const TimingSweep& sweep, Shard shard, const std::stri
         body = [s, &R, &X] { s->solve(R, X); };
     } else {
       if (p.m == 0)
-        body = [s, &q, &X] { s->configure(q); s->inverse(X); };
+        body = [s, &q, &X] {
+          s->configure(q);
+          s->inverse(X);
+        };
       else
-        body = [s, &q, &R, &X] { s->configure(q); s->solve(R, X); };
+        body = [s, &q, &R, &X] {
+          s->configure(q);
+          s->solve(R, X);
+        };
     }
     body();
     if (!X.allFinite()) throw std::runtime_error(p.name() + ": non-finite result");
@@ -264,23 +273,25 @@ struct Hid {
 
 std::vector<std::string> childNames(hid_t group) {
   std::vector<std::string> names;
-  H5Literate(group, H5_INDEX_NAME, H5_ITER_INC, nullptr,
-             [](hid_t, const char* name, const H5L_info_t*, void* data) -> herr_t {
-               static_cast<std::vector<std::string>*>(data)->push_back(name);
-               return 0;
-             },
-             &names);
+  H5Literate(
+      group, H5_INDEX_NAME, H5_ITER_INC, nullptr,
+      [](hid_t, const char* name, const H5L_info_t*, void* data) -> herr_t {
+        static_cast<std::vector<std::string>*>(data)->push_back(name);
+        return 0;
+      },
+      &names);
   return names;
 }
 
 std::vector<std::string> attributeNames(hid_t obj) {
   std::vector<std::string> names;
-  H5Aiterate2(obj, H5_INDEX_NAME, H5_ITER_INC, nullptr,
-              [](hid_t, const char* name, const H5A_info_t*, void* data) -> herr_t {
-                static_cast<std::vector<std::string>*>(data)->push_back(name);
-                return 0;
-              },
-              &names);
+  H5Aiterate2(
+      obj, H5_INDEX_NAME, H5_ITER_INC, nullptr,
+      [](hid_t, const char* name, const H5A_info_t*, void* data) -> herr_t {
+        static_cast<std::vector<std::string>*>(data)->push_back(name);
+        return 0;
+      },
+      &names);
   return names;
 }
 
@@ -298,9 +309,12 @@ struct AttrValue {
         std::snprintf(buf, sizeof buf, "%.17g", d);
         return buf;
       }
-      case Int: return std::to_string(i);
-      case UInt: return std::to_string(u);
-      default: return s;
+      case Int:
+        return std::to_string(i);
+      case UInt:
+        return std::to_string(u);
+      default:
+        return s;
     }
   }
 };
@@ -341,7 +355,8 @@ AttrValue readAttribute(hid_t obj, const std::string& name, const std::string& f
       }
       break;
     }
-    default: readFail("read attribute " + name + " (unsupported type)", file);
+    default:
+      readFail("read attribute " + name + " (unsupported type)", file);
   }
   return v;
 }
@@ -349,10 +364,17 @@ AttrValue readAttribute(hid_t obj, const std::string& name, const std::string& f
 void writeAttribute(H5Writer& h5, const std::string& obj, const std::string& name,
                     const AttrValue& v) {
   switch (v.kind) {
-    case AttrValue::Double: h5.setAttribute(obj, name, v.d); break;
-    case AttrValue::Int: h5.setAttribute(obj, name, v.i); break;
-    case AttrValue::UInt: h5.setAttribute(obj, name, v.u); break;
-    default: h5.setAttribute(obj, name, v.s);
+    case AttrValue::Double:
+      h5.setAttribute(obj, name, v.d);
+      break;
+    case AttrValue::Int:
+      h5.setAttribute(obj, name, v.i);
+      break;
+    case AttrValue::UInt:
+      h5.setAttribute(obj, name, v.u);
+      break;
+    default:
+      h5.setAttribute(obj, name, v.s);
   }
 }
 
@@ -382,7 +404,8 @@ std::vector<std::int64_t> readInts(hid_t ds, std::size_t count, const std::strin
 // `dst` through the writer.
 void copyGroup(hid_t src, H5Writer& h5, const std::string& dst, const std::string& file) {
   h5.createGroup(dst);
-  for (const std::string& a : attributeNames(src)) writeAttribute(h5, dst, a, readAttribute(src, a, file));
+  for (const std::string& a : attributeNames(src))
+    writeAttribute(h5, dst, a, readAttribute(src, a, file));
   for (const std::string& child : childNames(src)) {
     H5O_info_t info;
     if (H5Oget_info_by_name(src, child.c_str(), &info, H5P_DEFAULT) < 0)
@@ -412,7 +435,9 @@ void copyGroup(hid_t src, H5Writer& h5, const std::string& dst, const std::strin
         }
         break;
       }
-      case H5T_INTEGER: h5.writeIntVector(path, readInts(ds, count, file)); break;
+      case H5T_INTEGER:
+        h5.writeIntVector(path, readInts(ds, count, file));
+        break;
       case H5T_STRING: {
         Hid mem(H5Tcopy(H5T_C_S1), H5Tclose);
         H5Tset_size(mem, H5T_VARIABLE);
@@ -427,7 +452,8 @@ void copyGroup(hid_t src, H5Writer& h5, const std::string& dst, const std::strin
         h5.writeStrings(path, v);
         break;
       }
-      default: readFail("copy dataset " + child + " (unsupported type)", file);
+      default:
+        readFail("copy dataset " + child + " (unsupported type)", file);
     }
     for (const std::string& a : attributeNames(ds))
       writeAttribute(h5, path, a, readAttribute(ds, a, file));
@@ -435,7 +461,8 @@ void copyGroup(hid_t src, H5Writer& h5, const std::string& dst, const std::strin
 }
 
 bool endsWith(const std::string& s, const std::string& suffix) {
-  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+  return s.size() >= suffix.size() &&
+         s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
 hid_t openReadOnly(const std::string& path) {
@@ -457,14 +484,16 @@ int mergeResultFiles(const std::vector<std::string>& inputs, const std::string& 
     Hid file(openReadOnly(in), H5Fclose);
     Hid root(H5Gopen2(file, "/", H5P_DEFAULT), H5Gclose);
     if (k == 0)
-      for (const std::string& a : attributeNames(root)) writeAttribute(h5, "/", a, readAttribute(root, a, in));
+      for (const std::string& a : attributeNames(root))
+        writeAttribute(h5, "/", a, readAttribute(root, a, in));
     from += (from.empty() ? "" : ";") + in;
     if (H5Lexists(file, "points", H5P_DEFAULT) <= 0) continue;
     Hid points(H5Gopen2(file, "points", H5P_DEFAULT), H5Gclose);
     for (const std::string& name : childNames(points)) {
       if (endsWith(name, ".partial")) continue;  // a killed run's unfinished point
       if (!seen.insert(name).second)
-        throw std::runtime_error("point '" + name + "' appears in two inputs (the second: " + in + ")");
+        throw std::runtime_error("point '" + name + "' appears in two inputs (the second: " + in +
+                                 ")");
       Hid g(H5Gopen2(points, name.c_str(), H5P_DEFAULT), H5Gclose);
       copyGroup(g, h5, "points/" + name, in);
     }

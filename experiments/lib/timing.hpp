@@ -95,9 +95,8 @@ struct Measurement {
   std::vector<std::int64_t> iterations;
 };
 // Measure `body` (one iteration) under `label`.
-using MeasureFn =
-    std::function<Measurement(const std::string& label, const std::function<void()>& body,
-                              const TimingSweep& sweep)>;
+using MeasureFn = std::function<Measurement(
+    const std::string& label, const std::function<void()>& body, const TimingSweep& sweep)>;
 
 struct SweepStats {
   int measured = 0, resumed = 0, skipped = 0;
