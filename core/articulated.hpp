@@ -16,7 +16,7 @@ namespace minv {
 template <class T>
 struct Articulated {
   std::vector<Mat6<T>> IA;    // articulated-body inertias
-  Mat6N<T> U;                 // U = IA T, column per DOF
+  Mat6N<T> U;                 // U = IA S, column per DOF
   Mat6N<T> UDinv;             // U D⁻¹, column per DOF
   std::vector<MatK<T>> Dinv;  // D⁻¹ per body, k×k
   VecX<T> dinv;               // D⁻¹ of each one-DOF body at its DOF: dense, for the sweeps

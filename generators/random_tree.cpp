@@ -193,4 +193,12 @@ Eigen::VectorXd randomConfiguration(const Model& model, std::uint64_t seed) {
   return q;
 }
 
+Eigen::MatrixXd randomMatrix(int rows, int cols, std::uint64_t seed) {
+  Rng rng(seed);
+  Eigen::MatrixXd R(rows, cols);
+  for (int c = 0; c < cols; ++c)
+    for (int r = 0; r < rows; ++r) R(r, c) = rng.uniform(-1.0, 1.0);
+  return R;
+}
+
 }  // namespace minv

@@ -94,6 +94,10 @@ std::vector<int> randomParents(Topology topology, int n, Rng& rng);
 // A random tree as described at the top of this file; throws ModelError for n ≤ 0.
 Model randomTree(const TreeOptions& options);
 
+// Right-hand sides R (rows × cols): entries uniform in [−1, 1), column by column from
+// Rng(seed); bit-identical everywhere, like the trees.
+Eigen::MatrixXd randomMatrix(int rows, int cols, std::uint64_t seed);
+
 // A random configuration: revolute angles uniform in [−π, π), prismatic displacements in
 // [−0.5, 0.5), uniform unit quaternions for spherical joints, and for a floating base a
 // position uniform in [−1, 1)³ and a uniform unit quaternion.

@@ -76,32 +76,6 @@ void aba(const Model& model, const Kinematics<double>& kin, const Articulated<do
   }
 }
 
-void impulseForwardSweep(const Model& model, const Kinematics<double>& kin,
-                         const Articulated<double>& art, ImpulseWorkspace& ws,
-                         Eigen::VectorXd& dqd) {
-  for (int i = 0; i < model.nb(); ++i) {
-    const int p = model.parent(i), v = model.vIdx(i), k = model.nvOf(i);
-    if (k == 1) {
-      double qd = art.Dinv[i](0, 0) * ws.u(v);
-      if (p >= 0) qd -= art.UDinv.col(v).dot(ws.dv.col(p));
-      dqd(v) = qd;
-      if (p >= 0)
-        ws.dv.col(i) = ws.dv.col(p) + kin.S.col(v) * qd;
-      else
-        ws.dv.col(i) = kin.S.col(v) * qd;
-    } else {
-      VecK<double> qd = art.Dinv[i] * ws.u.segment(v, k);
-      if (p >= 0) qd.noalias() -= art.UDinv.middleCols(v, k).transpose() * ws.dv.col(p);
-      dqd.segment(v, k) = qd;
-      if (p >= 0)
-        ws.dv.col(i) = ws.dv.col(p);
-      else
-        ws.dv.col(i).setZero();
-      ws.dv.col(i).noalias() += kin.S.middleCols(v, k) * qd;
-    }
-  }
-}
-
 void addJacobianColumn(const Model& model, const Kinematics<double>& kin, int body,
                        const Vec6<double>& f, Eigen::MatrixXd& J, int col) {
   for (int i = body; i >= 0; i = model.parent(i)) {
@@ -117,24 +91,15 @@ std::vector<int> pathDofs(const Model& model, int body) {
   return dofs;
 }
 
-void testImpulses(const Model& model, const Kinematics<double>& kin,
-                  const Articulated<double>& art, ImpulseWorkspace& ws,
-                  const std::vector<int>& bodies, const std::vector<Vec6<double>>& wrenches,
-                  Eigen::MatrixXd& A, Eigen::VectorXd& scratch) {
+void testImpulses(const Model& model, const Kinematics<double>& kin, const Articulated<double>& art,
+                  ImpulseWorkspace& ws, const std::vector<int>& bodies,
+                  const std::vector<Vec6<double>>& wrenches, Eigen::MatrixXd& A,
+                  Eigen::VectorXd& scratch) {
   const int m = static_cast<int>(bodies.size());
   for (int c = 0; c < m; ++c) {
-    // Backward along the impulse's path only: Y_b = −f, u_i = −S_iᵀ Y_i, Y_λ = Y_i + U D⁻¹ u_i.
-    Vec6<double> Y = -wrenches[c];
-    for (int i = bodies[c]; i >= 0; i = model.parent(i)) {
-      const int vi = model.vIdx(i), k = model.nvOf(i);
-      ws.u.segment(vi, k).noalias() = -(kin.S.middleCols(vi, k).transpose() * Y);
-      Y.noalias() += art.UDinv.middleCols(vi, k) * ws.u.segment(vi, k);
-    }
-    // Forward: every body's ΔV (scratch receives Δq̇, unused).
-    impulseForwardSweep(model, kin, art, ws, scratch);
+    // Every body's ΔV for the unit impulse f_c at b_c (scratch receives Δq̇, unused).
+    testImpulseResponse<double>(model, kin, art, bodies[c], wrenches[c], scratch, ws);
     for (int r = 0; r < m; ++r) A(r, c) = wrenches[r].dot(ws.dv.col(bodies[r]));
-    for (int i = bodies[c]; i >= 0; i = model.parent(i))
-      ws.u.segment(model.vIdx(i), model.nvOf(i)).setZero();
   }
   // Symmetric up to rounding; make it exactly so.
   A = (0.5 * (A + A.transpose())).eval();
@@ -144,18 +109,7 @@ void applyImpulses(const Model& model, const Kinematics<double>& kin,
                    const Articulated<double>& art, ImpulseWorkspace& ws,
                    const std::vector<int>& bodies, const std::vector<Vec6<double>>& wrenches,
                    const Eigen::VectorXd& lambda, Eigen::VectorXd& dqd) {
-  ws.Y.setZero();
-  for (std::size_t c = 0; c < bodies.size(); ++c) ws.Y.col(bodies[c]) -= wrenches[c] * lambda(c);
-  for (int i = model.nb() - 1; i >= 0; --i) {
-    const int vi = model.vIdx(i), k = model.nvOf(i), p = model.parent(i);
-    ws.u.segment(vi, k).noalias() = -(kin.S.middleCols(vi, k).transpose() * ws.Y.col(i));
-    if (p >= 0) {
-      ws.Y.col(p) += ws.Y.col(i);
-      ws.Y.col(p).noalias() += art.UDinv.middleCols(vi, k) * ws.u.segment(vi, k);
-    }
-  }
-  impulseForwardSweep(model, kin, art, ws, dqd);
-  ws.u.setZero();
+  spatialImpulseResponse<double>(model, kin, art, bodies, wrenches, lambda, dqd, ws);
 }
 
 namespace {
@@ -174,8 +128,12 @@ void integrate(const Model& model, Eigen::VectorXd& q, const Eigen::VectorXd& v,
     const int o = model.qIdx(i), vi = model.vIdx(i);
     switch (model.joint(i).type) {
       case JointType::Revolute:
-      case JointType::Prismatic: q(o) += h * v(vi); break;
-      case JointType::Spherical: rotate(q, o, v.segment<3>(vi), h); break;
+      case JointType::Prismatic:
+        q(o) += h * v(vi);
+        break;
+      case JointType::Spherical:
+        rotate(q, o, v.segment<3>(vi), h);
+        break;
       case JointType::Floating: {
         const Mat3<double> R = quatToRotation<double>(q(o + 3), q(o + 4), q(o + 5), q(o + 6));
         q.segment<3>(o) += h * (R * v.segment<3>(vi + 3));

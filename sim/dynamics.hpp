@@ -17,12 +17,16 @@
 //   integrate()        q ← q ⊕ h·v: angles and positions by Euler, quaternions by the
 //                      exponential map of the child/body-frame angular velocity, renormalised;
 //                      a floating base moves by R·v_body.
+// testImpulses() and applyImpulses() run the impulse sweeps of core/impulse_sweeps.hpp
+// (Drumwright's Algorithms 1 and 2, the recursions solvers/abi runs in SIMD lanes):
+// testImpulseResponse() per column, spatialImpulseResponse() for the update.
 #pragma once
 
 #include <Eigen/Core>
 #include <vector>
 
 #include "core/articulated.hpp"
+#include "core/impulse_sweeps.hpp"
 #include "core/kinematics.hpp"
 
 namespace minv::sim {
@@ -41,19 +45,8 @@ struct AbaWorkspace {
       : V(Mat6N<double>::Zero(6, m.nb())), c(V), pA(V), a(V), u(Eigen::VectorXd::Zero(m.nv())) {}
 };
 
-// Scratch of the impulse sweeps (own copy: solvers/abi's workspace is that solver's business).
-struct ImpulseWorkspace {
-  Mat6N<double> Y, dv;  // articulated impulses and velocity changes, per body
-  Eigen::VectorXd u;    // per DOF
-  explicit ImpulseWorkspace(const Model& m)
-      : Y(Mat6N<double>::Zero(6, m.nb())), dv(Y), u(Eigen::VectorXd::Zero(m.nv())) {}
-};
-
-// Forward impulse sweep (Drumwright Alg. 1 lines 7-9): Δq̇_i = D_i⁻¹u_i − (U_iD_i⁻¹)ᵀΔV_λ(i),
-// ΔV_i = ΔV_λ(i) + S_iΔq̇_i, for every body; ws.u must be zero off the impulses' paths.
-void impulseForwardSweep(const Model& model, const Kinematics<double>& kin,
-                         const Articulated<double>& art, ImpulseWorkspace& ws,
-                         Eigen::VectorXd& dqd);
+// Scratch of the impulse sweeps (core/impulse_sweeps.hpp): Y, Δv per body, u per DOF.
+using ImpulseWorkspace = minv::ImpulseWorkspace<double>;
 
 // World spatial velocities V_i = V_λ(i) + S_i v_i of every body.
 void bodyVelocities(const Model& model, const Kinematics<double>& kin, const Eigen::VectorXd& v,
@@ -80,10 +73,10 @@ std::vector<int> pathDofs(const Model& model, int body);
 
 // Contact-space inertia A (m×m), A_rc = f_rᵀ ΔV_{b_r}(unit impulse f_c at b_c): equals
 // Jᵀ M⁻¹ J for J = [J_f0 … J_f(m−1)].
-void testImpulses(const Model& model, const Kinematics<double>& kin,
-                  const Articulated<double>& art, ImpulseWorkspace& ws,
-                  const std::vector<int>& bodies, const std::vector<Vec6<double>>& wrenches,
-                  Eigen::MatrixXd& A, Eigen::VectorXd& scratch);
+void testImpulses(const Model& model, const Kinematics<double>& kin, const Articulated<double>& art,
+                  ImpulseWorkspace& ws, const std::vector<int>& bodies,
+                  const std::vector<Vec6<double>>& wrenches, Eigen::MatrixXd& A,
+                  Eigen::VectorXd& scratch);
 
 // dqd = M⁻¹ Σ_c J_c λ_c for impulses λ_c along wrenches f_c at bodies b_c.
 void applyImpulses(const Model& model, const Kinematics<double>& kin,

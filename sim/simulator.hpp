@@ -1,6 +1,6 @@
 // Velocity-level (impulse-based) time stepping with point contacts on the ground plane z = 0.
 //
-// One step of size h, in four timed components:
+// One step of size h, in five timed components:
 //   dynamics     kinematics, articulated-body inertias, controller torques τ, ABA forward
 //                dynamics q̈ (sim/dynamics.hpp), v* = v + h q̈: the same for every path.
 //   collision    each contact point's height φ; points with φ < margin are contacts, with

@@ -10,6 +10,9 @@
 // Alg. 1 line 5 needs the `Y_i +` term and line 8 the minus sign. A floating base is body 0
 // with a 6-DOF joint whose S is the base's Plücker transform; D₀ = S₀ᵀ IA₀ S₀, so Alg. 2's
 // Δv₀ = (IA₀)⁻¹(r₀ − Y₀) is the k = 6 case of the same forward step.
+// The same sweeps one column at a time in plain scalar code, without the lane bookkeeping
+// below, are core/impulse_sweeps.hpp: read that first; tests/impulse_sweeps_test.cpp holds
+// this kernel to it for every lane remainder nv mod W.
 //
 // Savings: U, D⁻¹ and U D⁻¹ are computed once per configuration (§5.2; core/articulated.hpp).
 // For a unit column e_c at body b only b's ancestors carry a non-zero Y (§5.2), and since M⁻¹
@@ -36,7 +39,9 @@
 
 namespace minv {
 
-inline int omp_thread() { return omp_get_thread_num(); }
+inline int omp_thread() {
+  return omp_get_thread_num();
+}
 
 // The sweeps are compiled with every call inside them inlined, so that their lane arithmetic
 // is one loop body whatever inlining budget the including translation unit leaves.
@@ -95,13 +100,17 @@ struct AbiLanes {
   std::vector<Lane> e;  // e[w]: 1 in lane w, 0 elsewhere (the unit impulse of lane w)
 
   explicit AbiLanes(const Model& m)
-      : Y(m.nb(), Spatial::Zero()), dv(m.nb(), Spatial::Zero()), u(m.nv(), Lane::Zero()),
-        gather(m.nb(), 0), held(m.nb(), 0), link(m.nb(), 0), e(W, Lane::Zero()) {
+      : Y(m.nb(), Spatial::Zero()),
+        dv(m.nb(), Spatial::Zero()),
+        u(m.nv(), Lane::Zero()),
+        gather(m.nb(), 0),
+        held(m.nb(), 0),
+        link(m.nb(), 0),
+        e(W, Lane::Zero()) {
     for (int w = 0; w < W; ++w) e[w](w) = T(1);
     for (int j = 1; j < m.nb(); ++j)
       if (m.parent(j) >= 0 && m.parent(j) != j - 1) gather[m.parent(j)] = 1;
-    for (int j = 1; j < m.nb(); ++j)
-      link[j] = m.nvOf(j) == 1 && m.parent(j) == j - 1 && !gather[j];
+    for (int j = 1; j < m.nb(); ++j) link[j] = m.nvOf(j) == 1 && m.parent(j) == j - 1 && !gather[j];
   }
 };
 
@@ -115,7 +124,8 @@ struct AbiWorkspace {
   std::vector<AbiLanes<T, 1>> narrow;
 
   explicit AbiWorkspace(const Model& m, int threads = 1)
-      : wide(threads, AbiLanes<T, kAbiLanes<T>>(m)), half(threads, AbiLanes<T, kHalf>(m)),
+      : wide(threads, AbiLanes<T, kAbiLanes<T>>(m)),
+        half(threads, AbiLanes<T, kHalf>(m)),
         narrow(threads, AbiLanes<T, 1>(m)) {}
   int threads() const { return static_cast<int>(wide.size()); }
 };
@@ -123,9 +133,9 @@ struct AbiWorkspace {
 // One body of the backward sweep on Y = Y_i (Y_i + U D⁻¹ u on exit), for K DOFs (K = 0: k).
 // The 6-term dot products go as two halves, a shorter dependency chain.
 template <class T, int W, bool Unit, int K>
-inline void abiBackwardBody(const Kinematics<T>& kin, const Articulated<T>& art,
-                            AbiLanes<T, W>& ws, typename AbiLanes<T, W>::Spatial& Y, int v,
-                            int k, bool root, int c0, int width) {
+inline void abiBackwardBody(const Kinematics<T>& kin, const Articulated<T>& art, AbiLanes<T, W>& ws,
+                            typename AbiLanes<T, W>::Spatial& Y, int v, int k, bool root, int c0,
+                            int width) {
   using Lane = typename AbiLanes<T, W>::Lane;
   if constexpr (K > 0) k = K;
   Lane u[K > 0 ? K : 6];
@@ -286,8 +296,8 @@ MINV_FLATTEN void abiForward(const Model& model, const Kinematics<T>& kin,
 // the columns above the block's rows and the rows left of (and on) its diagonal tile.
 template <class T, int W, class Out, class Mark>
 MINV_FLATTEN void abiInverseBlock(const Model& model, const Kinematics<T>& kin,
-                                  const Articulated<T>& art, AbiLanes<T, W>& ws, int c0,
-                                  Out& X, Mark& mark) {
+                                  const Articulated<T>& art, AbiLanes<T, W>& ws, int c0, Out& X,
+                                  Mark& mark) {
   const int nv = model.nv(), width = std::min(W, nv - c0);
   const int last = model.dofBody(c0 + width - 1);
   // The unit impulses e_{c0+w}, one per lane, up to the roots; then Δq̇ of bodies 0 … last.
@@ -347,8 +357,8 @@ void abiInverse(const Model& model, const Kinematics<T>& kin, const Articulated<
 // Columns c0 … c0+W−1 of X = M⁻¹R: the full backward sweep, then the full forward sweep.
 template <class T, int W, class In, class Out, class Mark>
 MINV_FLATTEN void abiSolveBlock(const Model& model, const Kinematics<T>& kin,
-                                const Articulated<T>& art, AbiLanes<T, W>& ws, const In& R,
-                                int c0, Out& X, Mark& mark) {
+                                const Articulated<T>& art, AbiLanes<T, W>& ws, const In& R, int c0,
+                                Out& X, Mark& mark) {
   const int nb = model.nb(), nv = model.nv();
   const int width = std::min<int>(W, static_cast<int>(R.cols()) - c0);
   // r: the right-hand sides, one per lane (unused lanes zero); Y is zero between blocks.

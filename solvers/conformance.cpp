@@ -17,9 +17,9 @@ namespace minv {
 
 namespace {
 
-constexpr int kRhsColumns = 11;  // a full block of abi's 8 or 16 lanes would need 16: 11 is
-                                 // one partial block for 16 lanes and one full + one partial
-                                 // for 8 (the AVX2 half width)
+// 11 right-hand sides: more than abi's half-width block (8 of its 16 lanes), so M⁻¹R takes its
+// full-width path with a partial block, and the first column alone its one-lane path.
+constexpr int kRhsColumns = 11;
 
 double rel(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
   return (a - b).norm() / std::max(b.norm(), 1e-300);

@@ -3,6 +3,8 @@
 #pragma once
 
 #include <memory>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "core/crba.hpp"
@@ -71,6 +73,44 @@ class CrbaSolver : public Solver {
   std::unique_ptr<Kinematics<double>> kin_;
   std::vector<Mat6<double>> Ic_;
   Eigen::MatrixXd M_;
+};
+
+// A Cholesky-family solver on the tree's DOF parent array λ: CRBA, then a method given as three
+// kernels on the scalar T (so the timed code is the counted code) and a check of its factor:
+//   Method::factor<T>(λ, H)          factor M in place in H
+//   Method::inverse<T>(λ, H, X)      X = M⁻¹ from the factor
+//   Method::solve<T>(λ, H, x)        x ← M⁻¹x, one column
+//   Method::factorOk(H)              whether the factor is usable (M positive definite)
+//   Method::kName                    its name in messages
+template <class Method>
+class TreeCholeskySolver final : public CrbaSolver {
+ public:
+  static std::vector<StageCount> countStages(const Model& model, const Eigen::VectorXd& q, int m) {
+    const std::vector<int>& lambda = model.dofParent();
+    return countCholeskyPipeline(
+        model, q, m, [&](MatX<Counted>& H) { Method::template factor<Counted>(lambda, H); },
+        [&](const MatX<Counted>& H, MatX<Counted>& X) {
+          Method::template inverse<Counted>(lambda, H, X);
+        },
+        [&](const MatX<Counted>& H, auto&& x) { Method::template solve<Counted>(lambda, H, x); });
+  }
+
+  void inverse(MatrixOut Minv) override {
+    Method::template inverse<double>(model_->dofParent(), M_, Minv);
+  }
+  void solve(MatrixIn R, MatrixOut X) override {
+    X = R;
+    for (int c = 0; c < X.cols(); ++c)
+      Method::template solve<double>(model_->dofParent(), M_, X.col(c));
+  }
+
+ private:
+  void allocate(const Model&) override {}
+  void factor() override {
+    Method::template factor<double>(model_->dofParent(), M_);
+    if (!Method::factorOk(M_))
+      throw std::runtime_error(std::string(Method::kName) + " failed: M is not positive definite");
+  }
 };
 
 }  // namespace minv

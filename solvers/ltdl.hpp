@@ -65,29 +65,24 @@ void ltdlInverse(const std::vector<int>& lambda, const MatX<T>& H, Out&& Minv) {
   Minv.template triangularView<Eigen::StrictlyUpper>() = Minv.transpose();
 }
 
-class LtdlSolver final : public CrbaSolver {
- public:
-  static std::vector<StageCount> countStages(const Model& model, const Eigen::VectorXd& q, int m) {
-    const std::vector<int>& lambda = model.dofParent();
-    return countCholeskyPipeline(
-        model, q, m, [&](MatX<Counted>& H) { ltdlFactor<Counted>(lambda, H); },
-        [&](const MatX<Counted>& H, MatX<Counted>& X) { ltdlInverse<Counted>(lambda, H, X); },
-        [&](const MatX<Counted>& H, auto&& x) { ltdlSolve<Counted>(lambda, H, x); });
+// The method for TreeCholeskySolver (solvers/crba_solver.hpp).
+struct LtdlMethod {
+  static constexpr const char* kName = "LTDL";
+  template <class T>
+  static void factor(const std::vector<int>& lambda, MatX<T>& H) {
+    ltdlFactor<T>(lambda, H);
   }
-
-  void inverse(MatrixOut Minv) override { ltdlInverse<double>(model_->dofParent(), M_, Minv); }
-  void solve(MatrixIn R, MatrixOut X) override {
-    X = R;
-    for (int c = 0; c < X.cols(); ++c) ltdlSolve<double>(model_->dofParent(), M_, X.col(c));
+  template <class T, class Out>
+  static void inverse(const std::vector<int>& lambda, const MatX<T>& H, Out&& X) {
+    ltdlInverse<T>(lambda, H, X);
   }
-
- private:
-  void allocate(const Model&) override {}
-  void factor() override {
-    ltdlFactor<double>(model_->dofParent(), M_);
-    if (!(M_.diagonal().array() > 0).all())
-      throw std::runtime_error("LTDL failed: M is not positive definite");
+  template <class T, class Col>
+  static void solve(const std::vector<int>& lambda, const MatX<T>& H, Col&& x) {
+    ltdlSolve<T>(lambda, H, x);
   }
+  static bool factorOk(const Eigen::MatrixXd& M) { return (M.diagonal().array() > 0).all(); }
 };
+
+using LtdlSolver = TreeCholeskySolver<LtdlMethod>;
 
 }  // namespace minv

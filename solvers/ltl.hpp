@@ -69,29 +69,24 @@ void ltlInverse(const std::vector<int>& lambda, const MatX<T>& H, Out&& Minv) {
   Minv.template triangularView<Eigen::StrictlyUpper>() = Minv.transpose();
 }
 
-class LtlSolver final : public CrbaSolver {
- public:
-  static std::vector<StageCount> countStages(const Model& model, const Eigen::VectorXd& q, int m) {
-    const std::vector<int>& lambda = model.dofParent();
-    return countCholeskyPipeline(
-        model, q, m, [&](MatX<Counted>& H) { ltlFactor<Counted>(lambda, H); },
-        [&](const MatX<Counted>& H, MatX<Counted>& X) { ltlInverse<Counted>(lambda, H, X); },
-        [&](const MatX<Counted>& H, auto&& x) { ltlSolve<Counted>(lambda, H, x); });
+// The method for TreeCholeskySolver (solvers/crba_solver.hpp).
+struct LtlMethod {
+  static constexpr const char* kName = "LTL";
+  template <class T>
+  static void factor(const std::vector<int>& lambda, MatX<T>& H) {
+    ltlFactor<T>(lambda, H);
   }
-
-  void inverse(MatrixOut Minv) override { ltlInverse<double>(model_->dofParent(), M_, Minv); }
-  void solve(MatrixIn R, MatrixOut X) override {
-    X = R;
-    for (int c = 0; c < X.cols(); ++c) ltlSolve<double>(model_->dofParent(), M_, X.col(c));
+  template <class T, class Out>
+  static void inverse(const std::vector<int>& lambda, const MatX<T>& H, Out&& X) {
+    ltlInverse<T>(lambda, H, X);
   }
-
- private:
-  void allocate(const Model&) override {}
-  void factor() override {
-    ltlFactor<double>(model_->dofParent(), M_);
-    if (!M_.diagonal().allFinite())
-      throw std::runtime_error("LTL failed: M is not positive definite");
+  template <class T, class Col>
+  static void solve(const std::vector<int>& lambda, const MatX<T>& H, Col&& x) {
+    ltlSolve<T>(lambda, H, x);
   }
+  static bool factorOk(const Eigen::MatrixXd& M) { return M.diagonal().allFinite(); }
 };
+
+using LtlSolver = TreeCholeskySolver<LtlMethod>;
 
 }  // namespace minv

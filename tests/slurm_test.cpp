@@ -19,8 +19,12 @@
 #include <string>
 
 #include "experiments/lib/timing.hpp"
+#include "tests/test_util.hpp"
 
 namespace fs = std::filesystem;
+using minv::test::shell;
+using minv::test::slurp;
+using minv::test::tempDir;
 
 namespace {
 
@@ -36,18 +40,6 @@ int freePort() {
   const int port = ntohs(a.sin_port);
   close(s);
   return port;
-}
-
-int sh(const std::string& cmd) {
-  const int rc = std::system(cmd.c_str());
-  return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
-}
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
 }
 
 // Starts munged, slurmctld and slurmd for one node; exit 0 when the node is idle, else 3 with
@@ -108,9 +100,9 @@ struct Cluster {
   ~Cluster() {
     for (const char* d : {"slurmd", "slurmctld", "munged"}) {
       const fs::path pid = dir / (std::string(d) + ".pid");
-      if (fs::exists(pid)) sh("kill $(cat " + pid.string() + ") 2>/dev/null");
+      if (fs::exists(pid)) shell("kill $(cat " + pid.string() + ") 2>/dev/null");
     }
-    sh("sleep 1");
+    shell("sleep 1");
     fs::remove_all(dir);
   }
 };
@@ -125,9 +117,9 @@ TEST(Slurm, JobArrayShardsMergeToTheOneProcessRun) {
   fs::create_directories(c.dir);
   fs::permissions(c.dir, fs::perms::owner_all);
   { std::ofstream(c.dir / "start.sh") << kStart; }
-  const int rc = sh("bash " + (c.dir / "start.sh").string() + " " + c.dir.string() + " " +
-                    std::to_string(freePort()) + " " + std::to_string(freePort()) + " > " +
-                    (c.dir / "start.log").string() + " 2>&1");
+  const int rc = shell("bash " + (c.dir / "start.sh").string() + " " + c.dir.string() + " " +
+                       std::to_string(freePort()) + " " + std::to_string(freePort()) + " > " +
+                       (c.dir / "start.log").string() + " 2>&1");
   if (rc != 0) {
     std::string why = slurp(c.dir / "reason");
     if (why.empty()) why = "start script failed: " + slurp(c.dir / "start.log");
@@ -138,19 +130,20 @@ TEST(Slurm, JobArrayShardsMergeToTheOneProcessRun) {
       "SLURM_CONF=" + (c.dir / "slurm.conf").string() + " PATH=$PATH:/usr/sbin ";
   const fs::path out = c.dir / "out";
   const std::string script = fs::path(MINV_SOURCE_DIR) / "scripts" / "slurm_sweep.sh";
-  const int sb = sh("cd " + std::string(MINV_SOURCE_DIR) + " && " + env +
-                    "timeout 150 sbatch --wait --array=0-1 -o " + (c.dir / "task_%a.out").string() +
-                    " " + script + " --mode tiny --build " + bin_dir.string() + " --out-dir " +
-                    out.string() + " > " + (c.dir / "sbatch.log").string() + " 2>&1");
+  const int sb =
+      shell("cd " + std::string(MINV_SOURCE_DIR) + " && " + env +
+            "timeout 150 sbatch --wait --array=0-1 -o " + (c.dir / "task_%a.out").string() + " " +
+            script + " --mode tiny --build " + bin_dir.string() + " --out-dir " + out.string() +
+            " > " + (c.dir / "sbatch.log").string() + " 2>&1");
   ASSERT_EQ(sb, 0) << slurp(c.dir / "sbatch.log") << slurp(c.dir / "task_0.out")
                    << slurp(c.dir / "task_1.out") << slurp(c.dir / "slurmd.log");
   const fs::path s0 = out / "shards" / "timing.0of2.h5", s1 = out / "shards" / "timing.1of2.h5";
   ASSERT_TRUE(fs::exists(s0) && fs::exists(s1)) << slurp(c.dir / "task_0.out");
-  ASSERT_EQ(sh(std::string(MINV_CLI) + " merge --out " + (out / "timing.h5").string() + " " +
-               s0.string() + " " + s1.string() + " > /dev/null"),
+  ASSERT_EQ(shell(std::string(MINV_CLI) + " merge --out " + (out / "timing.h5").string() + " " +
+                  s0.string() + " " + s1.string() + " > /dev/null"),
             0);
-  ASSERT_EQ(sh((bin_dir / "bench_timing").string() + " --mode tiny --min-time 0.001 --out " +
-               (c.dir / "one.h5").string() + " > /dev/null"),
+  ASSERT_EQ(shell((bin_dir / "bench_timing").string() + " --mode tiny --min-time 0.001 --out " +
+                  (c.dir / "one.h5").string() + " > /dev/null"),
             0);
   const auto merged = minv::readPoints((out / "timing.h5").string());
   const auto one = minv::readPoints((c.dir / "one.h5").string());

@@ -19,34 +19,18 @@
 #include <thread>
 
 #include "solvers/solver.hpp"
+#include "tests/test_util.hpp"
 
 namespace fs = std::filesystem;
+using minv::test::shell;
+using minv::test::slurp;
+using minv::test::tempDir;
 using namespace minv;
 
 namespace {
 
 fs::path benchBinary() {
   return fs::path(MINV_CLI).parent_path() / "bench_timing";
-}
-
-fs::path tempDir(const std::string& tag) {
-  fs::path d = fs::temp_directory_path() /
-               ("minv_" + tag + "_" + std::to_string(::getpid()) + "_" +
-                std::to_string(std::chrono::steady_clock::now().time_since_epoch().count()));
-  fs::create_directories(d);
-  return d;
-}
-
-int run(const std::string& cmd) {
-  const int rc = std::system(cmd.c_str());
-  return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
-}
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
 }
 
 int countFinishedLines(const fs::path& log) {
@@ -195,8 +179,8 @@ TEST(Timing, KilledSweepResumesWithoutLosingPoints) {
   ASSERT_GE(before.size(), 2u);
   ASSERT_LT(before.size(), total) << "nothing left to resume";
 
-  ASSERT_EQ(run(benchBinary().string() + " --mode tiny --min-time 0.002 --out " + out.string() +
-                " > " + (dir / "second.log").string() + " 2>&1"),
+  ASSERT_EQ(shell(benchBinary().string() + " --mode tiny --min-time 0.002 --out " + out.string() +
+                  " > " + (dir / "second.log").string() + " 2>&1"),
             0)
       << slurp(dir / "second.log");
   EXPECT_NE(slurp(dir / "second.log").find(std::to_string(before.size()) + " already in"),
@@ -223,13 +207,13 @@ TEST(Timing, MergedShardsEqualOneProcess) {
   ASSERT_TRUE(fs::exists(benchBinary())) << benchBinary() << " is missing";
   const fs::path dir = tempDir("merge");
   const std::string bench = benchBinary().string() + " --mode tiny --min-time 0.001 ";
-  ASSERT_EQ(run(bench + "--out " + (dir / "one.h5").string() + " > /dev/null"), 0);
+  ASSERT_EQ(shell(bench + "--out " + (dir / "one.h5").string() + " > /dev/null"), 0);
   for (int i = 0; i < 2; ++i)
-    ASSERT_EQ(run(bench + "--shard " + std::to_string(i) + "/2 --out " +
-                  (dir / ("s" + std::to_string(i) + ".h5")).string() + " > /dev/null"),
+    ASSERT_EQ(shell(bench + "--shard " + std::to_string(i) + "/2 --out " +
+                    (dir / ("s" + std::to_string(i) + ".h5")).string() + " > /dev/null"),
               0);
-  ASSERT_EQ(run(std::string(MINV_CLI) + " merge --out " + (dir / "merged.h5").string() + " " +
-                (dir / "s0.h5").string() + " " + (dir / "s1.h5").string() + " > /dev/null"),
+  ASSERT_EQ(shell(std::string(MINV_CLI) + " merge --out " + (dir / "merged.h5").string() + " " +
+                  (dir / "s0.h5").string() + " " + (dir / "s1.h5").string() + " > /dev/null"),
             0);
   const auto one = readPoints((dir / "one.h5").string());
   const auto merged = readPoints((dir / "merged.h5").string());
@@ -242,16 +226,16 @@ TEST(Timing, MergedShardsEqualOneProcess) {
     EXPECT_EQ(merged.at(name).real_s.size(), rec.real_s.size()) << name;
   }
   // A point in two inputs is an error; a failed merge leaves no output file.
-  EXPECT_EQ(run(std::string(MINV_CLI) + " merge --out " + (dir / "dup.h5").string() + " " +
-                (dir / "s0.h5").string() + " " + (dir / "s0.h5").string() + " 2> /dev/null"),
+  EXPECT_EQ(shell(std::string(MINV_CLI) + " merge --out " + (dir / "dup.h5").string() + " " +
+                  (dir / "s0.h5").string() + " " + (dir / "s0.h5").string() + " 2> /dev/null"),
             2);
   EXPECT_FALSE(fs::exists(dir / "dup.h5"));
   EXPECT_FALSE(fs::exists(dir / "dup.h5.tmp"));
-  EXPECT_EQ(run(std::string(MINV_CLI) + " merge --out " + (dir / "x.h5").string() +
-                " /nonexistent.h5 2> /dev/null"),
+  EXPECT_EQ(shell(std::string(MINV_CLI) + " merge --out " + (dir / "x.h5").string() +
+                  " /nonexistent.h5 2> /dev/null"),
             2);
-  EXPECT_EQ(run(benchBinary().string() + " --shard 2/2 --out " + (dir / "y.h5").string() +
-                " 2> /dev/null"),
+  EXPECT_EQ(shell(benchBinary().string() + " --shard 2/2 --out " + (dir / "y.h5").string() +
+                  " 2> /dev/null"),
             2);
   fs::remove_all(dir);
 }

@@ -17,9 +17,8 @@
 #include "experiments/lib/h5writer.hpp"
 #include "experiments/lib/provenance.hpp"
 #include "generators/random_tree.hpp"
+#include "solvers/openblas.hpp"
 #include "solvers/solver.hpp"
-
-extern "C" void openblas_set_num_threads(int);
 
 namespace minv {
 

@@ -173,15 +173,6 @@ double seconds(std::chrono::steady_clock::duration d) {
   return std::chrono::duration<double>(d).count();
 }
 
-// R (nv×m): uniform in [−1, 1), column by column from Rng(seed).
-Eigen::MatrixXd randomRhs(int nv, int m, std::uint64_t seed) {
-  Rng rng(seed);
-  Eigen::MatrixXd R(nv, m);
-  for (int c = 0; c < m; ++c)
-    for (int r = 0; r < nv; ++r) R(r, c) = rng.uniform(-1.0, 1.0);
-  return R;
-}
-
 // One solver on (model, q): checked inverse, median time and optional solve, written to h5.
 void runSolver(const SolverEntry& e, const Model& model, const Eigen::VectorXd& q,
                const Eigen::MatrixXd& M, const SolveOptions& o, const std::string& topology,
@@ -230,7 +221,7 @@ void runSolver(const SolverEntry& e, const Model& model, const Eigen::VectorXd& 
   // Optional right-hand sides: solve(R) against Minv·R.
   std::string solve_col;
   if (o.rhs > 0) {
-    const Eigen::MatrixXd R = randomRhs(nv, o.rhs, o.rhs_seed);
+    const Eigen::MatrixXd R = randomMatrix(nv, o.rhs, o.rhs_seed);
     Eigen::MatrixXd Y(nv, o.rhs);
     solver->solve(R, Y);
     const Eigen::MatrixXd ref = X * R;

@@ -47,6 +47,11 @@ struct ColumnMaxMark {
 }  // namespace
 
 std::vector<StageCount> abiParallelCounts(const Model& model, const Eigen::VectorXd& q) {
+  // abi marks each sweep once per block of kAbiLanes<T> columns: the largest count booked by a
+  // single mark is one column's only when a block is one column wide.
+  static_assert(kAbiLanes<Counted> == 1,
+                "abiParallelCounts (ColumnMaxMark) takes one mark of abi's impulse sweeps for one "
+                "column: the counting scalar must run abi one lane (one column) per block");
   flopReset();
   ColumnMaxMark mark;
   abiPipeline<Counted>(model, q, 0, mark);
@@ -90,9 +95,9 @@ void printStageTable(std::ostream& os, const std::string& solver,
     const FlopCounts& c = s.counts;
     std::snprintf(line, sizeof line, "%-8s %-24s %12llu %12llu %10llu %8llu %8llu %8llu%s\n",
                   solver.c_str(), s.stage.c_str(), (unsigned long long)c.mul,
-                  (unsigned long long)c.add, (unsigned long long)c.div,
-                  (unsigned long long)c.sqrt, (unsigned long long)c.trig,
-                  (unsigned long long)c.cmp, s.documented ? "  (documented, LAWN 41)" : "");
+                  (unsigned long long)c.add, (unsigned long long)c.div, (unsigned long long)c.sqrt,
+                  (unsigned long long)c.trig, (unsigned long long)c.cmp,
+                  s.documented ? "  (documented, LAWN 41)" : "");
     os << line;
     total += c;
     documented |= s.documented;

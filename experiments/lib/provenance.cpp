@@ -11,8 +11,7 @@
 #include <fstream>
 #include <thread>
 
-extern "C" char* openblas_get_config();
-extern "C" int openblas_get_num_threads();
+#include "solvers/openblas.hpp"
 
 #ifndef MINV_GIT_SHA
 #define MINV_GIT_SHA "unknown"

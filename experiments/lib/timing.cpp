@@ -110,14 +110,6 @@ std::vector<TimingPoint> shardPoints(const std::vector<TimingPoint>& points, Sha
 
 namespace {
 
-Eigen::MatrixXd randomMatrix(int rows, int cols, std::uint64_t seed) {
-  Rng rng(seed);
-  Eigen::MatrixXd R(rows, cols);
-  for (int c = 0; c < cols; ++c)
-    for (int r = 0; r < rows; ++r) R(r, c) = rng.uniform(-1.0, 1.0);
-  return R;
-}
-
 void setBaselineThreads() {
   openblas_set_num_threads(1);
   omp_set_num_threads(1);

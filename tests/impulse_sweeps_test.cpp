@@ -1,0 +1,312 @@
+// The reference impulse sweeps (core/impulse_sweeps.hpp) against a dense inverse of CRBA's M,
+// and abi's SIMD kernel (solvers/abi.hpp, through the registry: abi and abi-generic) against
+// the reference, on every tree kind (serial and branched, fixed and floating base, revolute
+// and mixed joints, the centipede with yaw and spherical segment joints) and every lane
+// remainder: nv mod 16 takes each value 0 … 15 with nv ≥ 16 (full blocks of 16 lanes and a
+// partial one) for every kind, and every kind also has trees with nv < 16 (one partial block)
+// and all but the centipede (nv ≥ 14) trees with nv ≤ 8 (a lone half-width block; remainders
+// 1 … 8 give a half-width last block after full ones); solve() runs with m ∈ {1, …, 17, 33}
+// columns (the one-lane, half and full blocks, and two full blocks + one lane).
+//
+// Bounds, as in solvers/conformance.hpp: relative Frobenius ≤ tol = 10·(nv + 10)·κ·ε with
+// κ = cond₂(M) and ε the unit roundoff. A failure names the worst column, its block and lane.
+#include "core/impulse_sweeps.hpp"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <memory>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "core/articulated.hpp"
+#include "core/counting.hpp"
+#include "core/crba.hpp"
+#include "core/kinematics.hpp"
+#include "generators/centipede.hpp"
+#include "generators/random_tree.hpp"
+#include "solvers/solver.hpp"
+
+namespace minv {
+namespace {
+
+constexpr int kLanes = 16;  // kAbiLanes<double> (solvers/abi.hpp)
+
+struct Case {
+  std::string kind, name;
+  Model model;
+  Eigen::VectorXd q;
+  Eigen::MatrixXd M;
+  double tol = 0;
+};
+
+double relativeError(const Eigen::MatrixXd& x, const Eigen::MatrixXd& ref) {
+  return (x - ref).norm() / std::max(ref.norm(), 1e-300);
+}
+
+double bound(const Eigen::MatrixXd& M) {
+  const Eigen::VectorXd ev = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(M).eigenvalues();
+  const double kappa = ev.maxCoeff() / ev.minCoeff();
+  return 10 * (M.rows() + 10) * kappa * std::numeric_limits<double>::epsilon();
+}
+
+Case makeCase(std::string kind, std::string name, Model model, std::uint64_t seed) {
+  Case c{std::move(kind), std::move(name), std::move(model), {}, {}, 0};
+  c.q = randomConfiguration(c.model, seed);
+  c.M = massMatrix(c.model, c.q);
+  c.tol = bound(c.M);
+  return c;
+}
+
+// Every tree kind, each with n = 1, 2, … until nv mod 16 has taken all 16 values with
+// nv ≥ 16; the centipede with S = 1 … 17 segments (nv = 9S + 5 and 11S + 3: 9 and 11 are
+// prime to 16, so S = 2 … 17, all with nv ≥ 16, give every remainder).
+const std::vector<Case>& cases() {
+  static const std::vector<Case> all = [] {
+    std::vector<Case> out;
+    for (Topology t : {Topology::Serial, Topology::Branched})
+      for (bool floating : {false, true})
+        for (JointSet j : {JointSet::Revolute, JointSet::Mixed}) {
+          const std::string kind = std::string(topologyName(t)) + "_" + jointSetName(j) +
+                                   (floating ? "_floating" : "_fixed");
+          std::set<int> remainders;
+          for (int n = 1; remainders.size() < kLanes; ++n) {
+            const std::uint64_t seed = 500 + n;
+            Model m = randomTree({t, n, seed, floating, j});
+            if (m.nv() >= kLanes) remainders.insert(m.nv() % kLanes);
+            out.push_back(makeCase(kind, kind + "_n" + std::to_string(n), std::move(m), seed));
+          }
+        }
+    for (SegmentJoint sj : {SegmentJoint::Yaw, SegmentJoint::Spherical})
+      for (int S = 1; S <= kLanes + 1; ++S) {
+        const std::string kind = std::string("centipede_") + segmentJointName(sj);
+        Centipede c = makeCentipede({.segments = S, .segment_joint = sj});
+        out.push_back(makeCase(kind, kind + "_S" + std::to_string(S), std::move(c.model), 90 + S));
+      }
+    return out;
+  }();
+  return all;
+}
+
+Eigen::MatrixXd reference(const Case& c) {
+  Kinematics<double> kin(c.model);
+  computeKinematics<double>(c.model, c.q, kin);
+  Articulated<double> art(c.model);
+  articulatedInertias<double>(c.model, kin, art);
+  Eigen::MatrixXd X(c.model.nv(), c.model.nv());
+  referenceInverse<double>(c.model, kin, art, X);
+  return X;
+}
+
+// The largest error/bound seen by a test, printed at its end (how close to failing).
+struct Worst {
+  double ratio = 0;
+  std::string where;
+  void add(double error, double bound, const std::string& name) {
+    if (error / bound > ratio) ratio = error / bound, where = name;
+  }
+  ~Worst() { std::printf("  worst error/bound %.3g (%s)\n", ratio, where.c_str()); }
+};
+
+// "worst column c (block b, lane w): error e" for a failure message.
+std::string worstColumn(const Eigen::MatrixXd& x, const Eigen::MatrixXd& ref) {
+  int worst = 0;
+  double e = -1;
+  for (int c = 0; c < x.cols(); ++c) {
+    const double ec = (x.col(c) - ref.col(c)).norm() / std::max(ref.col(c).norm(), 1e-300);
+    if (!(ec <= e)) worst = c, e = ec;
+  }
+  std::ostringstream s;
+  s << "worst column " << worst << " (block " << worst / kLanes << ", lane " << worst % kLanes
+    << "): relative error " << e;
+  return s.str();
+}
+
+// The case list is what the header promises: per kind, every remainder with nv ≥ 16, and
+// trees with nv < 16 and nv ≤ 8.
+TEST(ImpulseSweeps, CasesCoverEveryLaneRemainder) {
+  std::set<std::string> kinds;
+  for (const Case& c : cases()) kinds.insert(c.kind);
+  EXPECT_EQ(kinds.size(), 10u);
+  for (const std::string& kind : kinds) {
+    std::set<int> remainders;
+    bool small = false, half = false;
+    for (const Case& c : cases()) {
+      if (c.kind != kind) continue;
+      if (c.model.nv() >= kLanes) remainders.insert(c.model.nv() % kLanes);
+      small |= c.model.nv() < kLanes;
+      half |= c.model.nv() <= kLanes / 2;
+    }
+    EXPECT_EQ(remainders.size(), static_cast<std::size_t>(kLanes)) << kind;
+    EXPECT_TRUE(small) << kind;
+    // A floating centipede has nv ≥ 14; every other kind reaches nv ≤ 8.
+    if (kind.rfind("centipede", 0) != 0) {
+      EXPECT_TRUE(half) << kind;
+    }
+  }
+}
+
+// The oracle is independent of abi: against CRBA's M, inverted densely, and multiplied back.
+TEST(ImpulseSweeps, ReferenceInverseMatchesDenseInverseOfCrba) {
+  Worst worst;
+  for (const Case& c : cases()) {
+    const int n = c.model.nv();
+    const Eigen::MatrixXd I = Eigen::MatrixXd::Identity(n, n);
+    const Eigen::MatrixXd X = reference(c);
+    const Eigen::MatrixXd Xd = c.M.llt().solve(I);
+    const double e = relativeError(X, Xd), r = relativeError(c.M * X, I);
+    EXPECT_LE(e, c.tol) << c.name << ": " << worstColumn(X, Xd);
+    EXPECT_LE(r, c.tol) << c.name << " |M X − I|";
+    worst.add(e, c.tol, c.name);
+    worst.add(r, c.tol, c.name + " |M X − I|");
+  }
+}
+
+// The reference on the counting scalar: the same values, and Θ(nb) operations per column.
+TEST(ImpulseSweeps, ReferenceRunsOnTheCountingScalar) {
+  for (int n : {10, 20}) {
+    const Model m = randomTree({Topology::Serial, n, 3, false, JointSet::Revolute});
+    const Eigen::VectorXd q = randomConfiguration(m, 4);
+    Kinematics<Counted> kin(m);
+    computeKinematics<Counted>(m, q.cast<Counted>(), kin);
+    Articulated<Counted> art(m);
+    articulatedInertias<Counted>(m, kin, art);
+    ImpulseWorkspace<Counted> ws(m);
+    VecX<Counted> r = VecX<Counted>::Zero(m.nv()), dq(m.nv());
+    r(n / 2) = 1;
+    flopReset();
+    impulseResponse<Counted>(m, kin, art, r, dq, ws);
+    const FlopCounts counts = flopTotal();
+    // Per body 12 mul + 18 add backward and 13 mul + 12 add forward; the root 6 + 6 and 7 + 0
+    // (nothing to hand up, no Δv_λ): the cost in the header.
+    EXPECT_EQ(counts.mul, std::uint64_t(25 * n - 12)) << n;
+    EXPECT_EQ(counts.add, std::uint64_t(30 * n - 24)) << n;
+    Kinematics<double> kd(m);
+    computeKinematics<double>(m, q, kd);
+    Articulated<double> ad(m);
+    articulatedInertias<double>(m, kd, ad);
+    Eigen::MatrixXd X(m.nv(), m.nv());
+    referenceInverse<double>(m, kd, ad, X);
+    for (int v = 0; v < m.nv(); ++v)
+      EXPECT_NEAR(dq(v).value(), X(v, n / 2), 1e-12 * X.col(n / 2).norm()) << v;
+  }
+}
+
+// Spatial impulses: a test impulse and a combination of them against M⁻¹ Jᵀ-style products
+// formed with the dense inverse, and Δv_i = Σ S_j Δq̇_j over i's path.
+TEST(ImpulseSweeps, SpatialImpulsesMatchDenseProducts) {
+  for (const Case& c : cases()) {
+    if (c.model.nb() < 2 || c.model.nv() > 80) continue;
+    const Model& m = c.model;
+    Kinematics<double> kin(m);
+    computeKinematics<double>(m, c.q, kin);
+    Articulated<double> art(m);
+    articulatedInertias<double>(m, kin, art);
+    const Eigen::MatrixXd Xd = c.M.llt().solve(Eigen::MatrixXd::Identity(m.nv(), m.nv()));
+    ImpulseWorkspace<double> ws(m);
+    Rng rng(m.nv());
+    std::vector<int> bodies;
+    std::vector<Vec6<double>> f;
+    Eigen::VectorXd lambda(3), r = Eigen::VectorXd::Zero(m.nv()), dq(m.nv());
+    for (int s = 0; s < 3; ++s) {
+      bodies.push_back(rng.below(m.nb()));
+      Vec6<double> fs;
+      for (int i = 0; i < 6; ++i) fs(i) = rng.uniform(-1, 1);
+      f.push_back(fs);
+      lambda(s) = rng.uniform(-1, 1);
+      // J_bᵀ f: S_jᵀ f over b's path.
+      Eigen::VectorXd rs = Eigen::VectorXd::Zero(m.nv());
+      for (int i = bodies[s]; i >= 0; i = m.parent(i))
+        rs.segment(m.vIdx(i), m.nvOf(i)) = kin.S.middleCols(m.vIdx(i), m.nvOf(i)).transpose() * fs;
+      r += lambda(s) * rs;
+      // One test impulse, and the Δv of its body.
+      testImpulseResponse<double>(m, kin, art, bodies[s], fs, dq, ws);
+      const Eigen::VectorXd ref = Xd * rs;
+      EXPECT_LE(relativeError(dq, ref), c.tol) << c.name << " test impulse " << s;
+      Vec6<double> dv = Vec6<double>::Zero();
+      for (int i = bodies[s]; i >= 0; i = m.parent(i))
+        dv += kin.S.middleCols(m.vIdx(i), m.nvOf(i)) * ref.segment(m.vIdx(i), m.nvOf(i));
+      EXPECT_LE((ws.dv.col(bodies[s]) - dv).norm(), c.tol * std::max(dv.norm(), 1e-300))
+          << c.name << " Δv " << s;
+    }
+    spatialImpulseResponse<double>(m, kin, art, bodies, f, lambda, dq, ws);
+    EXPECT_LE(relativeError(dq, Xd * r), c.tol) << c.name << " combined";
+  }
+}
+
+// The SIMD kernel as registered: abi, and abi-generic (the same kernel for generic x86-64)
+// where it is built.
+std::vector<std::string> abiSolvers() {
+  std::vector<std::string> out;
+  for (const char* name : {"abi", "abi-generic"})
+    if (findSolver(name)) out.push_back(name);
+  return out;
+}
+
+// abi's inverse() against the reference, column by column.
+TEST(ImpulseSweeps, AbiInverseMatchesReference) {
+  ASSERT_FALSE(abiSolvers().empty());
+  Worst worst;
+  for (const Case& c : cases()) {
+    const int n = c.model.nv();
+    const Eigen::MatrixXd ref = reference(c);
+    for (const std::string& name : abiSolvers()) {
+      auto abi = makeSolver(name);
+      abi->prepare(c.model);
+      abi->configure(c.q);
+      Eigen::MatrixXd X(n, n);
+      abi->inverse(X);
+      const double e = relativeError(X, ref);
+      EXPECT_LE(e, c.tol) << name << " " << c.name << " nv=" << n << " nv mod 16=" << n % 16 << ": "
+                          << worstColumn(X, ref);
+      worst.add(e, c.tol, name + " " + c.name);
+    }
+  }
+}
+
+// abi's solve(R) against the reference's response to each column of R.
+TEST(ImpulseSweeps, AbiSolveMatchesReference) {
+  ASSERT_FALSE(abiSolvers().empty());
+  std::vector<int> widths;
+  for (int m = 1; m <= 17; ++m) widths.push_back(m);
+  widths.push_back(33);
+  Worst worst;
+  for (const Case& c : cases()) {
+    const Model& model = c.model;
+    const int n = model.nv();
+    Kinematics<double> kin(model);
+    computeKinematics<double>(model, c.q, kin);
+    Articulated<double> art(model);
+    articulatedInertias<double>(model, kin, art);
+    ImpulseWorkspace<double> ws(model);
+    Rng rng(7 * n + 1);
+    for (int m : widths) {
+      Eigen::MatrixXd R(n, m), ref(n, m);
+      for (int j = 0; j < m; ++j)
+        for (int i = 0; i < n; ++i) R(i, j) = rng.uniform(-1, 1);
+      for (int j = 0; j < m; ++j)
+        impulseResponse<double>(model, kin, art, R.col(j), ref.col(j), ws);
+      for (const std::string& name : abiSolvers()) {
+        auto abi = makeSolver(name);
+        abi->prepare(model);
+        abi->configure(c.q);
+        Eigen::MatrixXd X(n, m);
+        abi->solve(R, X);
+        const double e = relativeError(X, ref);
+        EXPECT_LE(e, c.tol) << name << " " << c.name << " nv=" << n << " m=" << m << ": "
+                            << worstColumn(X, ref);
+        worst.add(e, c.tol, name + " " + c.name + " m=" + std::to_string(m));
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace minv
