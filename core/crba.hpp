@@ -44,6 +44,9 @@ void crbaMassMatrix(const Model& model, const Kinematics<T>& kin, const std::vec
     const Mat6X<T> F = Ic[i].lazyProduct(kin.S.middleCols(vi, ki));
     mark("Ic s vectors");
     M.block(vi, vi, ki, ki).noalias() = kin.S.middleCols(vi, ki).transpose().lazyProduct(F);
+    // Sᵀ(Ic S) is symmetric in exact arithmetic only: keep its upper triangle on both sides.
+    for (int a = 0; a < ki; ++a)
+      for (int b = a + 1; b < ki; ++b) M(vi + b, vi + a) = M(vi + a, vi + b);
     for (int j = model.parent(i); j >= 0; j = model.parent(j)) {
       const int vj = model.vIdx(j), kj = model.nvOf(j);
       M.block(vj, vi, kj, ki).noalias() = kin.S.middleCols(vj, kj).transpose().lazyProduct(F);

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstdint>
 #include <initializer_list>
 #include <map>
 
@@ -75,13 +76,41 @@ std::string where(int i, const std::string& name) {
   return "body " + std::to_string(i) + (name.empty() ? "" : " ('" + name + "')");
 }
 
-// The first entry of m beyond kMaxPhysicalMagnitude, as a message, or "".
-std::string outOfRange(const auto& m, const std::string& what) {
+// The first entry of m beyond ±limit, as a message, or "".
+std::string outOfRange(const auto& m, const std::string& what, double limit, const char* why) {
   for (Eigen::Index k = 0; k < m.size(); ++k)
-    if (std::abs(m.data()[k]) > kMaxPhysicalMagnitude)
-      return what + " " + formatNumber(m.data()[k]) + " is beyond ±" +
-             formatNumber(kMaxPhysicalMagnitude) + ", the range minv's kernels keep finite";
+    if (std::abs(m.data()[k]) > limit)
+      return what + " " + formatNumber(m.data()[k]) + " is beyond ±" + formatNumber(limit) + ", " +
+             why;
   return "";
+}
+constexpr const char* kFinite = "the range minv's kernels keep finite";
+constexpr const char* kAccurate =
+    "the range in which the world-frame kernels keep M accurate (see core/model.hpp)";
+
+// Whether a name is valid UTF-8 (names travel through JSON and HDF5 as UTF-8 text).
+bool validUtf8(const std::string& s) {
+  for (std::size_t i = 0; i < s.size();) {
+    const unsigned char c = s[i];
+    const int n = c < 0x80           ? 1
+                  : (c >> 5) == 0x6  ? 2
+                  : (c >> 4) == 0xe  ? 3
+                  : (c >> 3) == 0x1e ? 4
+                                     : 0;
+    if (n == 0 || i + n > s.size()) return false;
+    std::uint32_t cp = n == 1 ? c : c & (0x7f >> n);
+    for (int k = 1; k < n; ++k) {
+      const unsigned char d = s[i + k];
+      if ((d >> 6) != 0x2) return false;
+      cp = (cp << 6) | (d & 0x3f);
+    }
+    // No overlong forms, surrogates or code points beyond U+10FFFF.
+    if ((n == 2 && cp < 0x80) || (n == 3 && cp < 0x800) || (n == 4 && cp < 0x10000) ||
+        (cp >= 0xd800 && cp <= 0xdfff) || cp > 0x10ffff)
+      return false;
+    i += n;
+  }
+  return true;
 }
 
 void checkBody(int i, const Body& b) {
@@ -94,9 +123,12 @@ void checkBody(int i, const Body& b) {
                      ", the range minv's kernels keep finite");
   if (!finite(b.com)) throw ModelError(at + ": centre of mass is not finite");
   if (!finite(b.inertia)) throw ModelError(at + ": rotational inertia is not finite");
-  if (const std::string e = outOfRange(b.com, "centre of mass coordinate"); !e.empty())
+  if (const std::string e = outOfRange(b.com, "centre of mass coordinate", kMaxLength, kAccurate);
+      !e.empty())
     throw ModelError(at + ": " + e);
-  if (const std::string e = outOfRange(b.inertia, "rotational inertia entry"); !e.empty())
+  if (const std::string e =
+          outOfRange(b.inertia, "rotational inertia entry", kMaxPhysicalMagnitude, kFinite);
+      !e.empty())
     throw ModelError(at + ": " + e);
   const Eigen::Matrix3d& J = b.inertia;
   const double scale = J.cwiseAbs().maxCoeff();
@@ -136,7 +168,9 @@ void checkJoint(int i, Joint& j, int parent) {
     throw ModelError(at + ": a floating joint must attach a root body to the world");
   if (!finite(j.placement.R) || !finite(j.placement.p))
     throw ModelError(at + ": joint placement is not finite");
-  if (const std::string e = outOfRange(j.placement.p, "placement translation"); !e.empty())
+  if (const std::string e =
+          outOfRange(j.placement.p, "placement translation", kMaxLength, kAccurate);
+      !e.empty())
     throw ModelError(at + ": " + e);
   const Eigen::Matrix3d& R = j.placement.R;
   if ((R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > 1e-9 ||
@@ -187,6 +221,8 @@ Model Model::create(std::vector<int> parent, std::vector<Joint> joints, std::vec
   // one (empty names are allowed and numbered).
   std::map<std::string, int> body_at, joint_at;
   for (int i = 0; i < nb; ++i) {
+    if (!validUtf8(bodies[i].name) || !validUtf8(joints[i].name))
+      throw ModelError("body " + std::to_string(i) + ": its body or joint name is not valid UTF-8");
     const std::string& b = bodies[i].name;
     if (!b.empty() && !body_at.emplace(b, i).second)
       throw ModelError(where(i, b) + ": the body name '" + b + "' is already used by body " +
@@ -254,9 +290,22 @@ void Model::checkConfiguration(const Eigen::VectorXd& q) const {
       throw ModelError("configuration entry q[" + std::to_string(k) + "] is not finite");
   for (int i = 0; i < nb(); ++i) {
     const JointType t = joints_[i].type;
+    const int o = q_idx_[i];
+    // Lengths: a floating base's position, a prismatic displacement.
+    const int lengths = t == JointType::Floating ? 3 : t == JointType::Prismatic ? 1 : 0;
+    for (int k = 0; k < lengths; ++k)
+      if (std::abs(q(o + k)) > kMaxLength)
+        throw ModelError("configuration of " + where(i, joints_[i].name) + ": q[" +
+                         std::to_string(o + k) + "] = " + formatNumber(q(o + k)) + " is beyond ±" +
+                         formatNumber(kMaxLength) +
+                         ", the range in which the world-frame kernels keep M accurate");
     if (t != JointType::Spherical && t != JointType::Floating) continue;
-    const int o = q_idx_[i] + (t == JointType::Floating ? 3 : 0);
-    if (q.segment<4>(o).norm() < 1e-12)
+    // Quaternions: not zero, and small enough that their norm does not overflow.
+    const int w = o + (t == JointType::Floating ? 3 : 0);
+    if (q.segment<4>(w).cwiseAbs().maxCoeff() > 1e100)
+      throw ModelError("configuration of " + where(i, joints_[i].name) +
+                       ": a quaternion entry is beyond ±1e100 (its norm would overflow)");
+    if (q.segment<4>(w).norm() < 1e-12)
       throw ModelError("configuration of " + where(i, joints_[i].name) + ": zero quaternion");
   }
 }

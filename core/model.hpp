@@ -39,6 +39,12 @@ std::string formatNumber(double x);
 // Within it, every product minv's kernels form (m·r², sums over the tree, their squares in a
 // factorization) stays finite; beyond it a model is rejected at load, naming the place.
 inline constexpr double kMaxPhysicalMagnitude = 1e30;
+// The largest length a model or a configuration may hold: a coordinate of a centre of mass, of a
+// joint placement's translation, of a floating base's position, a prismatic displacement. The
+// paper's kernels work in world coordinates, where a body at distance |p| from the origin costs
+// about |p|²·ε of relative accuracy in M (at 10⁴ m, 2·10⁻⁸; at 10⁸ m, M is no longer positive
+// definite in floating point), so a model far from the origin is refused, not silently wrong.
+inline constexpr double kMaxLength = 1e4;
 
 enum class JointType { Revolute, Prismatic, Spherical, Floating };
 
@@ -66,8 +72,9 @@ class Model {
   // Validates and builds; throws ModelError naming the first problem found: a parent after its
   // child, a non-positive or out-of-range mass, an inertia that is not symmetric positive
   // definite or breaks the triangle inequality, a zero or non-finite axis, a placement that is
-  // not a rigid transform, a quantity beyond kMaxPhysicalMagnitude, two bodies or two joints
-  // with the same (non-empty) name.
+  // not a rigid transform, a mass or inertia beyond kMaxPhysicalMagnitude, a length beyond
+  // kMaxLength, a name that is not valid UTF-8, two bodies or two joints with the same
+  // (non-empty) name.
   static Model create(std::vector<int> parent, std::vector<Joint> joints, std::vector<Body> bodies);
 
   int nb() const { return static_cast<int>(parent_.size()); }
@@ -96,7 +103,9 @@ class Model {
 
   // The neutral configuration (zero angles, identity quaternions).
   Eigen::VectorXd neutral() const;
-  // Throws ModelError if q has the wrong size, a non-finite entry or a zero quaternion.
+  // Throws ModelError if q has the wrong size, a non-finite entry, a zero quaternion or one with
+  // an entry beyond ±1e100 (its norm would overflow), or a floating base position or a
+  // prismatic displacement beyond ±kMaxLength.
   void checkConfiguration(const Eigen::VectorXd& q) const;
 
  private:

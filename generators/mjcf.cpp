@@ -189,9 +189,34 @@ void installMujocoHandlers() {
   });
 }
 
+namespace {
+MjModelPtr compileMjcfFiles(const std::vector<MjcfFile>& files, const std::string& source_name);
+MjModelPtr compileMujocoPath(const std::string& path);
+
+// Runs MuJoCo calls whose errors (mju_error, thrown as std::runtime_error by throwingError)
+// must reach the caller as a ModelError naming the file.
+template <class F>
+auto asModelError(const std::string& source, F&& f) {
+  try {
+    return f();
+  } catch (const ModelError&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw ModelError(source + ": MuJoCo cannot load it: " + e.what());
+  }
+}
+}  // namespace
+
 MjModelPtr compileMjcf(const std::vector<MjcfFile>& files, const std::string& source_name) {
+  return asModelError(source_name, [&] { return compileMjcfFiles(files, source_name); });
+}
+
+namespace {
+MjModelPtr compileMjcfFiles(const std::vector<MjcfFile>& files, const std::string& source_name) {
   installMujocoHandlers();
   if (files.empty()) throw ModelError(source_name + ": no MJCF file to compile");
+  for (const MjcfFile& f : files)
+    if (f.text.empty()) throw ModelError(source_name + ": '" + f.name + "' is empty");
   if (files.size() > mjMAXVFS)
     throw ModelError(source_name + ": the MJCF needs " + std::to_string(files.size()) +
                      " files, more than MuJoCo's virtual file system holds (" +
@@ -214,8 +239,14 @@ MjModelPtr compileMjcf(const std::vector<MjcfFile>& files, const std::string& so
   if (!m) loadFailed(source_name, error);
   return MjModelPtr(m);
 }
+}  // namespace
 
 MjModelPtr compileMujocoFile(const std::string& path) {
+  return asModelError(path, [&] { return compileMujocoPath(path); });
+}
+
+namespace {
+MjModelPtr compileMujocoPath(const std::string& path) {
   installMujocoHandlers();
   char error[1024] = "";
   mjModel* m = nullptr;
@@ -227,6 +258,7 @@ MjModelPtr compileMujocoFile(const std::string& path) {
   if (!m) loadFailed(path, error);
   return MjModelPtr(m);
 }
+}  // namespace
 
 namespace {
 
@@ -411,7 +443,7 @@ Model modelFromMujoco(const mjModel* m, bool floating_base, const std::string& s
 
 Model loadMjcf(const std::string& path, bool floating_base) {
   const MjModelPtr m = compileMujocoFile(path);
-  return modelFromMujoco(m.get(), floating_base, path);
+  return asModelError(path, [&] { return modelFromMujoco(m.get(), floating_base, path); });
 }
 
 #endif

@@ -13,9 +13,9 @@
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
-#include <regex>
 #include <set>
 #include <sstream>
+#include <string_view>
 
 #include "generators/mjcf.hpp"
 
@@ -173,6 +173,11 @@ struct UrdfBody {
 void combine(const UrdfBody& ub, const std::string& source, Body& body) {
   std::vector<Body> parts;
   for (const auto& [in, T] : ub.parts) {
+    // Each link of a merged body must be physical on its own, not only their sum.
+    if (!(in->mass > 0))
+      throw ModelError(source + ": a link merged into body '" + ub.link +
+                       "' by a fixed joint has mass " + formatNumber(in->mass) +
+                       "; every link's mass must be positive");
     Body b;
     const Pose<double> C = T * toPose(in->origin);  // inertial frame in the body frame
     Eigen::Matrix3d I;
@@ -273,7 +278,9 @@ Model readJson(std::istream& in, const std::string& source) {
     bodies[i].name = r.string(r.key(b, at, "name"), at + ".name");
     const json& p = r.key(b, at, "parent");
     if (!p.is_number_integer()) r.fail(at + ".parent", "expected an integer, got " + p.dump());
-    if (p.get<long long>() < -1 || p.get<long long>() >= i)
+    // An unsigned number beyond long long's range would wrap to a negative one (−1, a root).
+    if ((p.is_number_unsigned() && p.get<std::uint64_t>() >= static_cast<std::uint64_t>(i)) ||
+        p.get<long long>() < -1 || p.get<long long>() >= i)
       r.fail(at + ".parent", "index " + p.dump() + " must be in [-1, " + std::to_string(i - 1) +
                                  "] (parent before child)");
     parent[i] = p.get<int>();
@@ -330,61 +337,165 @@ Model loadUrdf(const std::string& path, bool floating_base) {
 
 namespace {
 
+// One XML tag of a scan: its name, its attribute text, and whether it closes or is empty.
+struct XmlTag {
+  std::string_view name, attributes;
+  bool closing = false, empty = false;
+};
+
+// Calls visit(tag) for every element tag of `xml` in order, in one linear pass (comments,
+// processing instructions and declarations are skipped; quoted attribute values may hold '>').
+// Stops with false at the first malformed tag (urdfdom, which ran first, reports those).
+template <class Visit>
+bool forEachTag(std::string_view xml, Visit&& visit) {
+  std::size_t i = 0;
+  while ((i = xml.find('<', i)) != std::string_view::npos) {
+    if (xml.compare(i, 4, "<!--") == 0) {
+      const std::size_t e = xml.find("-->", i + 4);
+      if (e == std::string_view::npos) return false;
+      i = e + 3;
+      continue;
+    }
+    if (xml.compare(i, 2, "<?") == 0 || xml.compare(i, 2, "<!") == 0) {
+      const std::size_t e = xml.find('>', i + 2);
+      if (e == std::string_view::npos) return false;
+      i = e + 1;
+      continue;
+    }
+    XmlTag tag;
+    std::size_t j = i + 1;
+    tag.closing = j < xml.size() && xml[j] == '/';
+    if (tag.closing) ++j;
+    const std::size_t name_start = j;
+    while (j < xml.size() && !std::isspace(static_cast<unsigned char>(xml[j])) && xml[j] != '>' &&
+           xml[j] != '/')
+      ++j;
+    tag.name = xml.substr(name_start, j - name_start);
+    // The end of the tag, outside quoted values.
+    const std::size_t attrs = j;
+    char quote = 0;
+    for (; j < xml.size(); ++j) {
+      if (quote) {
+        if (xml[j] == quote) quote = 0;
+      } else if (xml[j] == '"' || xml[j] == '\'') {
+        quote = xml[j];
+      } else if (xml[j] == '>') {
+        break;
+      }
+    }
+    if (j >= xml.size()) return false;
+    tag.empty = j > attrs && xml[j - 1] == '/';
+    tag.attributes = xml.substr(attrs, j - attrs - (tag.empty ? 1 : 0));
+    visit(tag);
+    i = j + 1;
+  }
+  return true;
+}
+
+// The attributes of a tag as (name, value) pairs, in order.
+std::vector<std::pair<std::string, std::string>> xmlAttributes(std::string_view text) {
+  std::vector<std::pair<std::string, std::string>> out;
+  std::size_t i = 0;
+  while (i < text.size()) {
+    while (i < text.size() && std::isspace(static_cast<unsigned char>(text[i]))) ++i;
+    const std::size_t k = i;
+    while (i < text.size() && text[i] != '=' && !std::isspace(static_cast<unsigned char>(text[i])))
+      ++i;
+    std::string key(text.substr(k, i - k));
+    while (i < text.size() && (text[i] == '=' || std::isspace(static_cast<unsigned char>(text[i]))))
+      ++i;
+    if (i >= text.size() || (text[i] != '"' && text[i] != '\'')) break;
+    const char quote = text[i++];
+    const std::size_t e = text.find(quote, i);
+    if (e == std::string_view::npos) break;
+    out.emplace_back(std::move(key), std::string(text.substr(i, e - i)));
+    i = e + 1;
+  }
+  return out;
+}
+
+// urdfdom parses XML with TinyXML, whose time grows with the square of the nesting depth (6 s
+// for 21 000 unclosed elements, found by fuzzing); a URDF is a handful of levels deep, so
+// anything deeper than this is refused before it is parsed.
+constexpr int kMaxUrdfDepth = 64;
+
+void checkUrdfDepth(const std::string& xml, const std::string& source) {
+  int depth = 0, deepest = 0;
+  forEachTag(xml, [&](const XmlTag& t) {
+    if (t.closing)
+      --depth;
+    else if (!t.empty)
+      deepest = std::max(deepest, ++depth);
+  });
+  if (deepest > kMaxUrdfDepth)
+    throw ModelError(source + ": not a valid URDF tree: elements nested " +
+                     std::to_string(deepest) + " deep (a URDF needs a few levels; at most " +
+                     std::to_string(kMaxUrdfDepth) + ")");
+}
+
 // urdfdom reads a number it cannot parse ("nan", "1e999", "abc") without complaint, as 0 or
 // as NaN, so a bad mass would be reported as "got 0". Before its values are used, every number
 // minv reads from the file (the inertial's mass, inertia and origin, the joint's origin and
 // axis) is checked here, in the file's own text, and a bad one is named with its link or
-// joint. The XML itself has been accepted by urdfdom, so a scan of its tags suffices.
+// joint. The XML itself has been accepted by urdfdom, so one linear scan of its tags suffices.
 void checkUrdfNumbers(const std::string& xml, const std::string& source) {
-  static const std::regex tag(R"(<(/?)([A-Za-z_][\w:.-]*)([^>]*?)(/?)>)");
-  static const std::regex attribute(R"(([A-Za-z_][\w:.-]*)\s*=\s*"([^"]*)\")");
   std::string owner;  // "link 'b'" or "joint 'j'"
   bool inertial = false, joint = false;
-  for (auto it = std::sregex_iterator(xml.begin(), xml.end(), tag); it != std::sregex_iterator();
-       ++it) {
-    const std::smatch& m = *it;
-    const bool closing = m[1].length() > 0, empty = m[4].length() > 0;
-    const std::string name = m[2], attrs = m[3];
-    if (name == "link" || name == "joint") {
-      if (closing) {
+  forEachTag(xml, [&](const XmlTag& t) {
+    if (t.name == "link" || t.name == "joint") {
+      if (t.closing) {
         owner.clear(), joint = false;
-        continue;
+        return;
       }
       std::string id;
-      for (auto at = std::sregex_iterator(attrs.begin(), attrs.end(), attribute);
-           at != std::sregex_iterator(); ++at)
-        if ((*at)[1] == "name") id = (*at)[2];
-      owner = name + " '" + id + "'";
-      joint = name == "joint" && !empty;
-      continue;
+      for (const auto& [key, value] : xmlAttributes(t.attributes))
+        if (key == "name") id = value;
+      owner = std::string(t.name) + " '" + id + "'";
+      joint = t.name == "joint" && !t.empty;
+      return;
     }
-    if (name == "inertial") {
-      inertial = !closing && !empty;
-      continue;
+    if (t.name == "inertial") {
+      inertial = !t.closing && !t.empty;
+      return;
     }
-    const bool read = (inertial && (name == "mass" || name == "inertia" || name == "origin")) ||
-                      (joint && (name == "origin" || name == "axis"));
-    if (closing || !read) continue;
-    for (auto at = std::sregex_iterator(attrs.begin(), attrs.end(), attribute);
-         at != std::sregex_iterator(); ++at) {
-      const std::string key = (*at)[1], value = (*at)[2];
+    const bool read =
+        (inertial && (t.name == "mass" || t.name == "inertia" || t.name == "origin")) ||
+        (joint && (t.name == "origin" || t.name == "axis"));
+    if (t.closing || !read) return;
+    for (const auto& [key, value] : xmlAttributes(t.attributes)) {
       std::istringstream tokens(value);
-      for (std::string t; tokens >> t;) {
+      for (std::string v; tokens >> v;) {
         char* end = nullptr;
-        const double x = std::strtod(t.c_str(), &end);
-        if (end != t.c_str() + t.size() || !std::isfinite(x))
-          throw ModelError(source + ": " + owner + ": <" + name + " " + key + "=\"" + value +
-                           "\">: '" + t + "' is not a finite number");
+        const double x = std::strtod(v.c_str(), &end);
+        if (end != v.c_str() + v.size() || !std::isfinite(x))
+          throw ModelError(source + ": " + owner + ": <" + std::string(t.name) + " " + key + "=\"" +
+                           value + "\">: '" + v + "' is not a finite number");
       }
     }
-  }
+  });
 }
+
+// urdfdom's links hold shared pointers to their children and their children to their parents,
+// so a parsed model never frees itself; cut those links when minv is done with it.
+struct UrdfRelease {
+  urdf::ModelInterfaceSharedPtr& u;
+  ~UrdfRelease() {
+    if (!u) return;
+    for (auto& [name, link] : u->links_) {
+      link->child_links.clear();
+      link->child_joints.clear();
+      link->parent_joint.reset();
+    }
+  }
+};
 
 }  // namespace
 
 Model readUrdf(const std::string& xml, const std::string& source, bool floating_base) {
-  // Parse with urdfdom, which rejects cycles, several roots and dangling links.
+  // Parse with urdfdom, which rejects several roots and dangling links.
+  checkUrdfDepth(xml, source);
   urdf::ModelInterfaceSharedPtr u;
+  const UrdfRelease release{u};
   {
     ErrorCapture capture;
     try {
@@ -433,6 +544,15 @@ Model readUrdf(const std::string& xml, const std::string& source, bool floating_
       bodies[c->name] = {body, joint, c->name, {}};
       owner[c->name] = {c->name, {}};
     }
+  }
+  // Every link must hang below the root (urdfdom drops a cycle of joints that is not).
+  if (owner.size() != u->links_.size()) {
+    std::string lost;
+    for (const auto& [name, link] : u->links_)
+      if (!owner.count(name)) lost += (lost.empty() ? "'" : ", '") + name + "'";
+    throw ModelError(source + ": not a valid URDF tree: links " + lost +
+                     " are not connected to the root link '" + root->name +
+                     "' (a cycle of joints?)");
   }
   // Number the bodies: parents first, otherwise in natural name order.
   std::map<std::string, std::vector<std::string>> children;

@@ -3,6 +3,7 @@
 // are (not "%f", which turns 1e-9 into 0.000000).
 #include <gtest/gtest.h>
 
+#include <Eigen/Cholesky>
 #include <limits>
 
 #include "core/crba.hpp"
@@ -74,16 +75,73 @@ TEST(ModelValidation, PhysicalRangeIsCheckedAtLoad) {
   EXPECT_NE(c.error().find("body 2 ('b2'): mass 1e+308 is beyond 1e+30"), std::string::npos)
       << c.error();
   Chain d;
-  d.bodies[0].com = Eigen::Vector3d(0, 1e31, 0);
-  EXPECT_NE(d.error().find("centre of mass coordinate 1e+31"), std::string::npos) << d.error();
+  d.bodies[0].com = Eigen::Vector3d(0, 2e4, 0);
+  EXPECT_NE(d.error().find("centre of mass coordinate 20000 is beyond ±10000"), std::string::npos)
+      << d.error();
   Chain e;
   e.bodies[1].inertia *= 1e40;
   EXPECT_NE(e.error().find("rotational inertia entry"), std::string::npos) << e.error();
   Chain f;
-  f.joints[1].placement.p = Eigen::Vector3d(-2e30, 0, 0);
-  EXPECT_NE(f.error().find("joint of body 1 ('j1'): placement translation -2e+30"),
+  f.joints[1].placement.p = Eigen::Vector3d(-1e8, 0, 0);
+  EXPECT_NE(f.error().find("joint of body 1 ('j1'): placement translation -1e+08 is beyond ±10000"),
             std::string::npos)
       << f.error();
+}
+
+// Names must be valid UTF-8 (they travel as UTF-8 through JSON and HDF5): a stray byte, an
+// overlong form and a surrogate are refused; accents and Greek letters are fine.
+TEST(ModelValidation, NamesAreUtf8) {
+  for (const char* bad : {"a\xff", "a\xc0\x80", "\xed\xa0\x80", "\xe2\x82"}) {
+    Chain c;
+    c.bodies[1].name = bad;
+    EXPECT_NE(c.error().find("not valid UTF-8"), std::string::npos) << c.error();
+  }
+  Chain ok;
+  ok.bodies[1].name = "bras_épaule";
+  ok.joints[2].name = "θ₂";
+  EXPECT_EQ(ok.error(), "");
+}
+
+// Configurations: lengths beyond kMaxLength and quaternion entries whose norm would overflow.
+TEST(ModelValidation, ConfigurationRanges) {
+  Chain c;
+  c.joints[0].type = JointType::Floating;
+  c.joints[1].type = JointType::Prismatic;
+  c.joints[2].type = JointType::Spherical;
+  const Model m = Model::create(c.parent, c.joints, c.bodies);
+  auto error = [&](const Eigen::VectorXd& q) {
+    try {
+      m.checkConfiguration(q);
+    } catch (const ModelError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  Eigen::VectorXd q = m.neutral();
+  EXPECT_EQ(error(q), "");
+  q(0) = 1e5;  // base x
+  EXPECT_NE(error(q).find("q[0] = 1e+05 is beyond ±10000"), std::string::npos) << error(q);
+  q = m.neutral();
+  q(7) = -2e4;  // the prismatic joint
+  EXPECT_NE(error(q).find("q[7] = -20000"), std::string::npos) << error(q);
+  q = m.neutral();
+  q.segment<4>(8) << 1e155, 1e155, 0, 0;  // a 90° turn whose norm would overflow
+  EXPECT_NE(error(q).find("beyond ±1e100"), std::string::npos) << error(q);
+}
+
+// M of a multi-DOF joint is exactly symmetric (its diagonal block Sᵀ(Ic S) is mirrored).
+TEST(ModelValidation, MassMatrixExactlySymmetric) {
+  Chain c;
+  c.joints[0].type = JointType::Floating;
+  c.joints[2].type = JointType::Spherical;
+  c.joints[0].placement.p = Eigen::Vector3d(5e3, -7e3, 1e3);
+  const Model m = Model::create(c.parent, c.joints, c.bodies);
+  Eigen::VectorXd q = m.neutral();
+  q.segment<4>(3) << 0.3, 0.5, -0.2, 0.7;
+  q.segment<4>(8) << 0.1, -0.4, 0.8, 0.3;
+  const Eigen::MatrixXd M = massMatrix(m, q);
+  EXPECT_EQ(M, M.transpose());
+  EXPECT_EQ(M.llt().info(), Eigen::Success);
 }
 
 // An axis with huge (or tiny) entries names a direction: it is normalised without overflow and

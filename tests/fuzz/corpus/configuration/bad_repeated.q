@@ -1,0 +1,2 @@
+elbow 1
+elbow 2

@@ -1,0 +1,1 @@
+slider 1e8
