@@ -65,7 +65,7 @@ void crba(const Model& model, const Kinematics<T>& kin, std::vector<Mat6<T>>& Ic
 
 // M at q in one call. It allocates: for tests, tools and references, not for timed loops.
 inline Eigen::MatrixXd massMatrix(const Model& model, const Eigen::VectorXd& q) {
-  Kinematics<double> kin(model);
+  Kinematics<double> kin(model, Origin::EachRoot);
   computeKinematics<double>(model, q, kin);
   std::vector<Mat6<double>> Ic(model.nb());
   Eigen::MatrixXd M(model.nv(), model.nv());

@@ -3,6 +3,13 @@
 // Stage "spatial axes": body poses ⁰X_i and each joint's motion subspace S_i (6×k, one column
 // per DOF) in world coordinates. Stage "isolated inertias": each body's spatial inertia I_i in
 // world coordinates, about the world origin. Parametrisation of q: see core/model.hpp.
+//
+// Origin::EachRoot keeps the world's axes but puts the origin at each tree's root joint (body
+// i's root's placement and a floating base's position are dropped). M and M⁻¹ do not depend
+// on where a tree stands, and world-frame products such as p × ω and m·c·cᵀ lose accuracy as
+// ε·(|p|/ℓ)² far from the origin (ℓ the tree's size: 1e-8 relative at 10 km for a 1 m robot),
+// so every solver uses it; the simulator, which needs positions in the world, does not. The
+// dropped translation is still computed, so flop counts are the same in both.
 // Cost: Θ(nb); no allocation after the Kinematics object is built.
 #pragma once
 
@@ -23,13 +30,18 @@ using MatX = Eigen::Matrix<T, Eigen::Dynamic, Eigen::Dynamic>;
 template <class T>
 using Mat6N = Eigen::Matrix<T, 6, Eigen::Dynamic>;
 
+// Where the frame of a Kinematics object has its origin (its axes are always the world's).
+enum class Origin { World, EachRoot };
+
 template <class T>
 struct Kinematics {
   std::vector<Pose<T>> X;  // body i's pose in the world
   Mat6N<T> S;              // motion subspaces in world coordinates, column k for DOF k
   std::vector<Mat6<T>> I;  // body spatial inertias in world coordinates
+  Origin origin;           // World, or each tree's root joint
 
-  explicit Kinematics(const Model& m) : X(m.nb()), S(Mat6N<T>::Zero(6, m.nv())), I(m.nb()) {}
+  explicit Kinematics(const Model& m, Origin o = Origin::World)
+      : X(m.nb()), S(Mat6N<T>::Zero(6, m.nv())), I(m.nb()), origin(o) {}
 };
 
 // Rotation of a unit quaternion (w, x, y, z); normalises first.
@@ -84,9 +96,12 @@ void forwardKinematics(const Model& model, const VecX<T>& q, Kinematics<T>& kin,
     const Joint& j = model.joint(i);
     kin.X[i] = castPose<T>(j.placement) * jointPose<T>(j, q, model.qIdx(i));
   };
-  // ⁰X_i = ⁰X_λ(i) · (placement · X_J), parents first.
+  // ⁰X_i = ⁰X_λ(i) · (placement · X_J), parents first; a root at the origin if asked.
   auto compose = [&](int i) {
-    if (model.parent(i) >= 0) kin.X[i] = kin.X[model.parent(i)] * kin.X[i];
+    if (model.parent(i) >= 0)
+      kin.X[i] = kin.X[model.parent(i)] * kin.X[i];
+    else if (kin.origin == Origin::EachRoot)
+      kin.X[i].p.setZero();
   };
   // S_i: the joint's body-frame subspace carried to world coordinates.
   auto axes = [&](int i) {

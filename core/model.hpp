@@ -41,9 +41,10 @@ std::string formatNumber(double x);
 inline constexpr double kMaxPhysicalMagnitude = 1e30;
 // The largest length a model or a configuration may hold: a coordinate of a centre of mass, of a
 // joint placement's translation, of a floating base's position, a prismatic displacement. The
-// paper's kernels work in world coordinates, where a body at distance |p| from the origin costs
-// about |p|²·ε of relative accuracy in M (at 10⁴ m, 2·10⁻⁸; at 10⁸ m, M is no longer positive
-// definite in floating point), so a model far from the origin is refused, not silently wrong.
+// paper's kernels work in world-aligned coordinates, where a body at distance |p| from the
+// origin costs about |p|²·ε of relative accuracy in M. The solvers put the origin at each tree's
+// root joint (Origin::EachRoot, core/kinematics.hpp), so where a tree stands costs nothing; the
+// limit bounds the lengths within a tree, and the simulator's world-frame kinematics.
 inline constexpr double kMaxLength = 1e4;
 
 enum class JointType { Revolute, Prismatic, Spherical, Floating };

@@ -17,7 +17,7 @@ void AbiSolver::setThreads(int n) {
 
 void AbiSolver::prepare(const Model& model) {
   model_ = &model;
-  kin_ = std::make_unique<Kinematics<double>>(model);
+  kin_ = std::make_unique<Kinematics<double>>(model, Origin::EachRoot);
   art_ = std::make_unique<Articulated<double>>(model);
   ws_ = std::make_unique<AbiWorkspace<double>>(model, threads_);
 }

@@ -409,7 +409,7 @@ void abiSolve(const Model& model, const Kinematics<T>& kin, const Articulated<T>
 // and velocity updates. M⁻¹ for m = 0, else M⁻¹R for R = the first m columns of I.
 template <class T, class Mark>
 void abiPipeline(const Model& model, const Eigen::VectorXd& q, int m, Mark&& mark) {
-  Kinematics<T> kin(model);
+  Kinematics<T> kin(model, Origin::EachRoot);
   Articulated<T> art(model);
   AbiWorkspace<T> ws(model);
   const VecX<T> qt = q.cast<T>();

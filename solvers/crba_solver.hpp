@@ -15,7 +15,7 @@ namespace minv {
 // Kinematics and CRBA on the counting scalar, one mark per stage; H (nv×nv) receives M.
 inline void countCrbaFront(const Model& model, const Eigen::VectorXd& q, MatX<Counted>& H,
                            StageCounter& mark) {
-  Kinematics<Counted> kin(model);
+  Kinematics<Counted> kin(model, Origin::EachRoot);
   std::vector<Mat6<Counted>> Ic(model.nb());
   const VecX<Counted> qc = q.cast<Counted>();
   forwardKinematics<Counted>(model, qc, kin, mark);
@@ -52,7 +52,7 @@ class CrbaSolver : public Solver {
  public:
   void prepare(const Model& model) final {
     model_ = &model;
-    kin_ = std::make_unique<Kinematics<double>>(model);
+    kin_ = std::make_unique<Kinematics<double>>(model, Origin::EachRoot);
     Ic_.assign(model.nb(), Mat6<double>::Zero());
     M_ = Eigen::MatrixXd::Zero(model.nv(), model.nv());
     allocate(model);

@@ -87,16 +87,21 @@ TEST(ClosedForm, FreeFloatingBody) {
   Body body = makeBody(m, com, Eigen::Vector3d::Ones());
   body.inertia = Ic;
   const Model model = Model::create({-1}, {base}, {body});
-  Eigen::VectorXd q(7);
-  q << 0.3, -1.0, 2.0, 0.9, 0.1, -0.3, 0.2;  // any pose: M is independent of it
+  // Any pose: M is independent of it, also 10 km from the world origin, where world-frame
+  // products lose |p|²·ε ≈ 2e-8 relative unless each tree is computed about its root.
+  Eigen::VectorXd q(7), far(7);
+  q << 0.3, -1.0, 2.0, 0.9, 0.1, -0.3, 0.2;
+  far << 9e3, -8e3, 1e4, 0.9, 0.1, -0.3, 0.2;
   // In base coordinates ([ω; v] of the body frame) M is the body's spatial inertia
   // [Ī + m c̃c̃ᵀ, m c̃; m c̃ᵀ, m 1], written out here independently of core/spatial.hpp.
   Eigen::Matrix3d C;
   C << 0, -com.z(), com.y(), com.z(), 0, -com.x(), -com.y(), com.x(), 0;
   Eigen::Matrix<double, 6, 6> M;
   M << Ic + m * C * C.transpose(), m * C, m * C.transpose(), m * Eigen::Matrix3d::Identity();
-  EXPECT_LT((massMatrix(model, q) - M).norm(), 1e-13);
-  expectAllSolversInvert(model, q, M);
+  for (const Eigen::VectorXd& at : {q, far}) {
+    EXPECT_LT((massMatrix(model, at) - M).norm(), 1e-13) << at.transpose();
+    expectAllSolversInvert(model, at, M);
+  }
 }
 
 }  // namespace

@@ -1,0 +1,14 @@
+base_x 9999.7
+base_y -9998.3
+base_z 9997.1
+base_qw 3.1e+89
+base_qx 7.2e+89
+base_qy -2.3e+89
+base_qz 5.5e+89
+ball_qw 0.4
+ball_qx 0.2
+ball_qy -0.7
+ball_qz 0.33
+elbow 0.7
+slider 0.2
+wrist -1.1
