@@ -10,6 +10,22 @@
 
 namespace minv {
 
+Body mergeRigid(const std::vector<Body>& parts) {
+  if (parts.size() == 1) return parts[0];
+  Body body;
+  body.mass = 0;
+  Eigen::Vector3d moment = Eigen::Vector3d::Zero();
+  for (const Body& b : parts) body.mass += b.mass, moment += b.mass * b.com;
+  body.com = moment / body.mass;
+  body.inertia.setZero();
+  for (const Body& b : parts) {
+    const Eigen::Vector3d d = b.com - body.com;
+    body.inertia +=
+        b.inertia + b.mass * (d.squaredNorm() * Eigen::Matrix3d::Identity() - d * d.transpose());
+  }
+  return body;
+}
+
 std::string formatNumber(double x) {
   if (std::isnan(x)) return "nan";
   if (std::isinf(x)) return x > 0 ? "inf" : "-inf";

@@ -68,6 +68,13 @@ struct Body {
   Eigen::Matrix3d inertia = Eigen::Matrix3d::Identity();  // about the com, body axes
 };
 
+// One body from links joined rigidly (URDF fixed joints, MJCF welded bodies), each given by its
+// mass, centre of mass and inertia about it in the body's frame: total mass, mass-weighted
+// centre, Σ Ī_k + m_k (|d_k|² 1 − d_k d_kᵀ) with d_k = c_k − c (parallel-axis theorem, about
+// the common centre, so far-off links lose no accuracy). One part is returned unchanged. The
+// name is left empty; the parts must have positive mass.
+Body mergeRigid(const std::vector<Body>& parts);
+
 class Model {
  public:
   // Validates and builds; throws ModelError naming the first problem found: a parent after its

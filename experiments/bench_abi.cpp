@@ -31,6 +31,7 @@
 #include "experiments/lib/budget.hpp"
 #include "experiments/lib/h5writer.hpp"
 #include "experiments/lib/provenance.hpp"
+#include "experiments/lib/timing.hpp"
 #include "generators/random_tree.hpp"
 #include "solvers/abi.hpp"
 #include "solvers/solver.hpp"
@@ -169,8 +170,14 @@ void registerParts(int n) {
   }
 }
 
+// The timing sweep's kernel grid (experiments/lib/timing.cpp: ×2 from n = 8), to full mode's
+// largest n: one grid for both timing drivers.
+std::vector<int> perfSizes() {
+  return logSpaced(8, 4096, 1);
+}
+
 void registerAll(bool full) {
-  const std::vector<int> sizes = {8, 16, 32, 64, 128, 256, 512, 1024, 2048, 4096};
+  const std::vector<int> sizes = perfSizes();
   for (Topology t : {Topology::Serial, Topology::Branched})
     for (int n : sizes) {
       for (const std::string& s : peers()) {
@@ -252,7 +259,7 @@ void report(bool full, const std::string& out) {
       file->setAttribute("runs/" + name, "median_s", m.median);
     }
   }
-  const std::vector<int> sizes = {8, 16, 32, 64, 128, 256, 512, 1024, 2048, 4096};
+  const std::vector<int> sizes = perfSizes();
   for (Topology t : {Topology::Serial, Topology::Branched}) {
     const std::string T = topologyName(t);
     auto time = [&](const std::string& s, int n) {

@@ -281,15 +281,6 @@ Pose<double> translation(const Eigen::Vector3d& p) {
   return X;
 }
 
-// Mass, centre of mass and rotational inertia from a spatial inertia about the frame origin.
-void fromSpatial(const Mat6<double>& I, Body& b) {
-  b.mass = I(3, 3);
-  const Eigen::Matrix3d C = I.topRightCorner<3, 3>() / b.mass;  // c̃
-  b.com = Eigen::Vector3d(C(2, 1), C(0, 2), C(1, 0));
-  const Eigen::Matrix3d Ic = I.topLeftCorner<3, 3>() - b.mass * C * C.transpose();
-  b.inertia = 0.5 * (Ic + Ic.transpose());
-}
-
 }  // namespace
 
 Model modelFromMujoco(const mjModel* m, bool floating_base, const std::string& source) {
@@ -321,7 +312,7 @@ Model modelFromMujoco(const mjModel* m, bool floating_base, const std::string& s
   std::vector<int> parents;
   std::vector<Joint> joints;
   std::vector<Body> bodies;
-  std::vector<Mat6<double>> inertia;  // accumulated, about our body's origin, its axes
+  std::vector<std::vector<Body>> parts;  // the MuJoCo bodies merged into each of ours
   struct JointOnly {
     int body, last;
     Eigen::Vector3d to_last;  // the last body's origin in this body's frame (zero joints)
@@ -335,7 +326,7 @@ Model modelFromMujoco(const mjModel* m, bool floating_base, const std::string& s
     Body body;
     body.name = name;
     bodies.push_back(body);
-    inertia.push_back(Mat6<double>::Zero());
+    parts.emplace_back();
     return static_cast<int>(parents.size()) - 1;
   };
 
@@ -413,8 +404,11 @@ Model modelFromMujoco(const mjModel* m, bool floating_base, const std::string& s
       const Pose<double>& X = off[b];
       const Eigen::Vector3d c = X.p + X.R * vec3(m->body_ipos + 3 * b);
       const Eigen::Matrix3d Ri = X.R * quatRotation(m->body_iquat + 4 * b);
+      Body part;
+      part.mass = mass, part.com = c;
       const Eigen::Matrix3d Ic = Ri * vec3(m->body_inertia + 3 * b).asDiagonal() * Ri.transpose();
-      inertia[ours[b]] += mcI<double>(mass, c, Ic);
+      part.inertia = 0.5 * (Ic + Ic.transpose());  // exactly symmetric
+      parts[ours[b]].push_back(part);
     }
   }
   if (parents.empty()) throw ModelError(source + ": the model has no joints (nothing moves)");
@@ -423,9 +417,11 @@ Model modelFromMujoco(const mjModel* m, bool floating_base, const std::string& s
   for (const JointOnly& jo : joint_only) is_joint_only[jo.body] = 1;
   for (std::size_t i = 0; i < parents.size(); ++i) {
     if (is_joint_only[i]) continue;
-    if (!(inertia[i](3, 3) > 0))
+    if (parts[i].empty())
       throw ModelError(source + ": MuJoCo body '" + bodies[i].name + "' has no mass");
-    fromSpatial(inertia[i], bodies[i]);
+    const std::string name = bodies[i].name;
+    bodies[i] = mergeRigid(parts[i]);
+    bodies[i].name = name;
   }
   for (const JointOnly& jo : joint_only) {
     const Body& last = bodies[jo.last];

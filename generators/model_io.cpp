@@ -189,23 +189,8 @@ void combine(const UrdfBody& ub, const std::string& source, Body& body) {
   }
   if (parts.empty())
     throw ModelError(source + ": link '" + ub.link + "' has no inertial (mass must be positive)");
+  body = mergeRigid(parts);
   body.name = ub.link;
-  // A single link keeps its values exactly.
-  if (parts.size() == 1) {
-    body.mass = parts[0].mass, body.com = parts[0].com, body.inertia = parts[0].inertia;
-    return;
-  }
-  body.mass = 0;
-  Eigen::Vector3d moment = Eigen::Vector3d::Zero();
-  for (const Body& b : parts) body.mass += b.mass, moment += b.mass * b.com;
-  body.com = body.mass > 0 ? Eigen::Vector3d(moment / body.mass) : Eigen::Vector3d::Zero();
-  // Σ I_k + m_k (|d|² 1 − d dᵀ), d = c_k − c.
-  body.inertia.setZero();
-  for (const Body& b : parts) {
-    const Eigen::Vector3d d = b.com - body.com;
-    body.inertia +=
-        b.inertia + b.mass * (d.squaredNorm() * Eigen::Matrix3d::Identity() - d * d.transpose());
-  }
 }
 
 // ---- URDF writing --------------------------------------------------------------------------

@@ -27,8 +27,9 @@ def text(v):
     return v.decode() if isinstance(v, bytes) else v
 
 
-def load_timing(name="timing.h5"):
-    """Every point of a timing file: dict of attributes plus 'real' (raw repetitions, s)."""
+def load_points(name):
+    """(file attributes, every finished point: its attributes, 'name', and for a timed point
+    'real' (raw repetitions, s) and 'median') of a sweep file in results/."""
     out = []
     with h5py.File(result_path(name), "r") as f:
         root = {k: text(v) for k, v in f.attrs.items()}
@@ -42,6 +43,10 @@ def load_timing(name="timing.h5"):
                 rec["median"] = float(np.median(rec["real"]))
             out.append(rec)
     return root, out
+
+
+def load_timing(name="timing.h5"):
+    return load_points(name)
 
 
 def series(points, family, solver, topology="serial", base="fixed", m=0, threads=1):
@@ -121,12 +126,4 @@ def speedups(points, solver, threads):
 
 
 def load_accuracy(name="accuracy.h5"):
-    out = []
-    with h5py.File(result_path(name), "r") as f:
-        root = {k: text(v) for k, v in f.attrs.items()}
-        for pname, g in f["points"].items():
-            if pname.endswith(".partial"):
-                continue
-            rec = {k: text(v) for k, v in g.attrs.items()}
-            out.append(rec)
-    return root, out
+    return load_points(name)

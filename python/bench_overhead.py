@@ -23,25 +23,9 @@ _HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path = [p for p in sys.path if os.path.abspath(p or os.curdir) != _HERE]
 
 import numpy as np  # noqa: E402
-import scipy.linalg  # noqa: E402
 
 import minv  # noqa: E402
-
-
-class ScipyCholesky:
-    """M⁻¹ by CRBA (minv.mass_matrix) and scipy's dense Cholesky."""
-
-    def prepare(self, model):
-        self.model, self.eye = model, np.eye(model.nv)
-
-    def configure(self, q):
-        self.factor = scipy.linalg.cho_factor(minv.mass_matrix(self.model, q))
-
-    def inverse(self):
-        return scipy.linalg.cho_solve(self.factor, self.eye)
-
-    def solve(self, R):
-        return scipy.linalg.cho_solve(self.factor, R)
+from minv.reference import ScipyCholesky  # noqa: E402
 
 
 def python_loop(solver, X, repetitions, runs):

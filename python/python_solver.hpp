@@ -44,7 +44,6 @@ class PythonSolver : public Solver {
  public:
   // `object` is the Python solver; `label` names it in messages. Needs the GIL.
   PythonSolver(SharedObject object, std::string label);
-  ~PythonSolver() override = default;
 
   bool supports(const Model& model, std::string* why) const override;
   void setThreads(int n) override;

@@ -10,6 +10,8 @@
 #include <dart/dynamics/Skeleton.hpp>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
+#include <utility>
 
 namespace minv {
 
@@ -30,14 +32,20 @@ Eigen::Isometry3d placement(const PlainBody& b) {
   return T;
 }
 
-// Fills the properties every joint type shares: name, placement, child frame at the joint.
-template <class Props>
-Props jointProperties(const PlainBody& b, int i) {
-  Props p;
+// Body i on a joint of type J under `parent` (nullptr: the world): the joint properties every
+// type shares (name, placement, child frame at the joint), and the axis where J has one.
+template <class J>
+std::pair<dd::Joint*, dd::BodyNode*> addBody(dd::Skeleton& skel, dd::BodyNode* parent,
+                                             const PlainBody& b, int i,
+                                             const dd::BodyNode::Properties& body) {
+  typename J::Properties p;
   p.mName = "j" + std::to_string(i);
   p.mT_ParentBodyToJoint = placement(b);
   p.mT_ChildBodyToJoint = Eigen::Isometry3d::Identity();
-  return p;
+  if constexpr (std::is_same_v<J, dd::RevoluteJoint> || std::is_same_v<J, dd::PrismaticJoint>)
+    p.mAxis = Eigen::Map<const Eigen::Vector3d>(b.axis);
+  const auto pair = skel.template createJointAndBodyNodePair<J>(parent, p, body);
+  return {pair.first, pair.second};
 }
 
 }  // namespace
@@ -78,37 +86,24 @@ void DartSkeletonBridge::build(const std::vector<PlainBody>& bodies) {
     body.mInertia = dd::Inertia(b.mass, Eigen::Map<const Eigen::Vector3d>(b.com),
                                 Eigen::Map<const Eigen::Matrix3d>(b.inertia));
     dd::BodyNode* parent = b.parent < 0 ? nullptr : nodes.at(b.parent);
-    const Eigen::Vector3d axis = Eigen::Map<const Eigen::Vector3d>(b.axis);
     // Joint: the body frame is the joint frame after the motion.
-    dd::Joint* joint = nullptr;
+    std::pair<dd::Joint*, dd::BodyNode*> made;
     switch (b.joint) {
-      case PlainJoint::Revolute: {
-        auto p = jointProperties<dd::RevoluteJoint::Properties>(b, i);
-        p.mAxis = axis;
-        auto pair = skel_->createJointAndBodyNodePair<dd::RevoluteJoint>(parent, p, body);
-        joint = pair.first, nodes[i] = pair.second;
+      case PlainJoint::Revolute:
+        made = addBody<dd::RevoluteJoint>(*skel_, parent, b, i, body);
         break;
-      }
-      case PlainJoint::Prismatic: {
-        auto p = jointProperties<dd::PrismaticJoint::Properties>(b, i);
-        p.mAxis = axis;
-        auto pair = skel_->createJointAndBodyNodePair<dd::PrismaticJoint>(parent, p, body);
-        joint = pair.first, nodes[i] = pair.second;
+      case PlainJoint::Prismatic:
+        made = addBody<dd::PrismaticJoint>(*skel_, parent, b, i, body);
         break;
-      }
-      case PlainJoint::Spherical: {
-        auto p = jointProperties<dd::BallJoint::Properties>(b, i);
-        auto pair = skel_->createJointAndBodyNodePair<dd::BallJoint>(parent, p, body);
-        joint = pair.first, nodes[i] = pair.second;
+      case PlainJoint::Spherical:
+        made = addBody<dd::BallJoint>(*skel_, parent, b, i, body);
         break;
-      }
-      case PlainJoint::Floating: {
-        auto p = jointProperties<dd::FreeJoint::Properties>(b, i);
-        auto pair = skel_->createJointAndBodyNodePair<dd::FreeJoint>(parent, p, body);
-        joint = pair.first, nodes[i] = pair.second;
+      case PlainJoint::Floating:
+        made = addBody<dd::FreeJoint>(*skel_, parent, b, i, body);
         break;
-      }
     }
+    dd::Joint* joint = made.first;
+    nodes[i] = made.second;
     // DART's DOFs must be ours: same count per joint, numbered in creation order.
     const int dof = static_cast<int>(joint->getIndexInSkeleton(0));
     if (dof != b.v_index || dof != nv)

@@ -16,73 +16,62 @@
 
 namespace minv {
 
-// H = M (lower triangle) becomes L and D in place.
-template <class T>
-void ltdlFactor(const std::vector<int>& lambda, MatX<T>& H) {
-  const int n = static_cast<int>(H.rows());
-  for (int k = n - 1; k >= 0; --k) {
-    for (int i = lambda[k]; i != -1; i = lambda[i]) {
-      // a = H_ki / H_kk; H_ij −= a H_kj for every ancestor j of i (and i itself).
-      const T a = H(k, i) / H(k, k);
-      for (int j = i; j != -1; j = lambda[j]) H(i, j) -= a * H(k, j);
-      H(k, i) = a;
+// The method for TreeCholeskySolver (solvers/crba_solver.hpp): its three kernels and the check
+// of its factor.
+struct Ltdl {
+  static constexpr const char* kName = "LTDL";
+  static bool factorOk(const Eigen::MatrixXd& M) { return (M.diagonal().array() > 0).all(); }
+
+  // H = M (lower triangle) becomes L and D in place.
+  template <class T>
+  static void factor(const std::vector<int>& lambda, MatX<T>& H) {
+    const int n = static_cast<int>(H.rows());
+    for (int k = n - 1; k >= 0; --k) {
+      for (int i = lambda[k]; i != -1; i = lambda[i]) {
+        // a = H_ki / H_kk; H_ij −= a H_kj for every ancestor j of i (and i itself).
+        const T a = H(k, i) / H(k, k);
+        for (int j = i; j != -1; j = lambda[j]) H(i, j) -= a * H(k, j);
+        H(k, i) = a;
+      }
     }
   }
-}
 
-// x = M⁻¹ x = L⁻¹ D⁻¹ L⁻ᵀ x for one column.
-template <class T, class Col>
-void ltdlSolve(const std::vector<int>& lambda, const MatX<T>& H, Col&& x) {
-  const int n = static_cast<int>(H.rows());
-  // x = L⁻ᵀ x: leaves first, each DOF pushes its value to its ancestors.
-  for (int i = n - 1; i >= 0; --i)
-    for (int j = lambda[i]; j != -1; j = lambda[j]) x(j) -= H(i, j) * x(i);
-  // x = D⁻¹ x.
-  for (int i = 0; i < n; ++i) x(i) /= H(i, i);
-  // x = L⁻¹ x: root first, each DOF pulls from its ancestors.
-  for (int i = 0; i < n; ++i)
-    for (int j = lambda[i]; j != -1; j = lambda[j]) x(i) -= H(i, j) * x(j);
-}
-
-// M⁻¹ column by column: L⁻ᵀ e_k is non-zero only on k's ancestors, so the first two steps
-// walk that path alone; L⁻¹ then fills the column. Lower half mirrored.
-template <class T, class Out>
-void ltdlInverse(const std::vector<int>& lambda, const MatX<T>& H, Out&& Minv) {
-  const int n = static_cast<int>(H.rows());
-  Minv.setZero();
-  for (int k = 0; k < n; ++k) {
-    auto x = Minv.col(k);
-    x(k) = T(1);
-    // x = D⁻¹ L⁻ᵀ e_k along the path k, λ(k), …
-    for (int i = k; i != -1; i = lambda[i]) {
+  // x = M⁻¹ x = L⁻¹ D⁻¹ L⁻ᵀ x for one column.
+  template <class T, class Col>
+  static void solve(const std::vector<int>& lambda, const MatX<T>& H, Col&& x) {
+    const int n = static_cast<int>(H.rows());
+    // x = L⁻ᵀ x: leaves first, each DOF pushes its value to its ancestors.
+    for (int i = n - 1; i >= 0; --i)
       for (int j = lambda[i]; j != -1; j = lambda[j]) x(j) -= H(i, j) * x(i);
-      x(i) /= H(i, i);
-    }
-    // x = L⁻¹ x over every DOF.
+    // x = D⁻¹ x.
+    for (int i = 0; i < n; ++i) x(i) /= H(i, i);
+    // x = L⁻¹ x: root first, each DOF pulls from its ancestors.
     for (int i = 0; i < n; ++i)
       for (int j = lambda[i]; j != -1; j = lambda[j]) x(i) -= H(i, j) * x(j);
   }
-  Minv.template triangularView<Eigen::StrictlyUpper>() = Minv.transpose();
-}
 
-// The method for TreeCholeskySolver (solvers/crba_solver.hpp).
-struct LtdlMethod {
-  static constexpr const char* kName = "LTDL";
-  template <class T>
-  static void factor(const std::vector<int>& lambda, MatX<T>& H) {
-    ltdlFactor<T>(lambda, H);
-  }
+  // M⁻¹ column by column: L⁻ᵀ e_k is non-zero only on k's ancestors, so the first two steps
+  // walk that path alone; L⁻¹ then fills the column. Lower half mirrored.
   template <class T, class Out>
-  static void inverse(const std::vector<int>& lambda, const MatX<T>& H, Out&& X) {
-    ltdlInverse<T>(lambda, H, X);
+  static void inverse(const std::vector<int>& lambda, const MatX<T>& H, Out&& Minv) {
+    const int n = static_cast<int>(H.rows());
+    Minv.setZero();
+    for (int k = 0; k < n; ++k) {
+      auto x = Minv.col(k);
+      x(k) = T(1);
+      // x = D⁻¹ L⁻ᵀ e_k along the path k, λ(k), …
+      for (int i = k; i != -1; i = lambda[i]) {
+        for (int j = lambda[i]; j != -1; j = lambda[j]) x(j) -= H(i, j) * x(i);
+        x(i) /= H(i, i);
+      }
+      // x = L⁻¹ x over every DOF.
+      for (int i = 0; i < n; ++i)
+        for (int j = lambda[i]; j != -1; j = lambda[j]) x(i) -= H(i, j) * x(j);
+    }
+    Minv.template triangularView<Eigen::StrictlyUpper>() = Minv.transpose();
   }
-  template <class T, class Col>
-  static void solve(const std::vector<int>& lambda, const MatX<T>& H, Col&& x) {
-    ltdlSolve<T>(lambda, H, x);
-  }
-  static bool factorOk(const Eigen::MatrixXd& M) { return (M.diagonal().array() > 0).all(); }
 };
 
-using LtdlSolver = TreeCholeskySolver<LtdlMethod>;
+using LtdlSolver = TreeCholeskySolver<Ltdl>;
 
 }  // namespace minv

@@ -16,77 +16,66 @@
 
 namespace minv {
 
-// H = M (lower triangle) becomes L in place.
-template <class T>
-void ltlFactor(const std::vector<int>& lambda, MatX<T>& H) {
-  using std::sqrt;
-  const int n = static_cast<int>(H.rows());
-  for (int k = n - 1; k >= 0; --k) {
-    // L_kk = √H_kk; L_ki = H_ki / L_kk for the ancestors i of k.
-    H(k, k) = sqrt(H(k, k));
-    for (int i = lambda[k]; i != -1; i = lambda[i]) H(k, i) /= H(k, k);
-    // H_ij −= L_ki L_kj for every pair of ancestors j ≤ i of k.
-    for (int i = lambda[k]; i != -1; i = lambda[i])
-      for (int j = i; j != -1; j = lambda[j]) H(i, j) -= H(k, i) * H(k, j);
-  }
-}
+// The method for TreeCholeskySolver (solvers/crba_solver.hpp): its three kernels and the check
+// of its factor.
+struct Ltl {
+  static constexpr const char* kName = "LTL";
+  static bool factorOk(const Eigen::MatrixXd& M) { return M.diagonal().allFinite(); }
 
-// x = M⁻¹ x = L⁻¹ L⁻ᵀ x for one column.
-template <class T, class Col>
-void ltlSolve(const std::vector<int>& lambda, const MatX<T>& H, Col&& x) {
-  const int n = static_cast<int>(H.rows());
-  // x = L⁻ᵀ x: leaves first.
-  for (int i = n - 1; i >= 0; --i) {
-    x(i) /= H(i, i);
-    for (int j = lambda[i]; j != -1; j = lambda[j]) x(j) -= H(i, j) * x(i);
+  // H = M (lower triangle) becomes L in place.
+  template <class T>
+  static void factor(const std::vector<int>& lambda, MatX<T>& H) {
+    using std::sqrt;
+    const int n = static_cast<int>(H.rows());
+    for (int k = n - 1; k >= 0; --k) {
+      // L_kk = √H_kk; L_ki = H_ki / L_kk for the ancestors i of k.
+      H(k, k) = sqrt(H(k, k));
+      for (int i = lambda[k]; i != -1; i = lambda[i]) H(k, i) /= H(k, k);
+      // H_ij −= L_ki L_kj for every pair of ancestors j ≤ i of k.
+      for (int i = lambda[k]; i != -1; i = lambda[i])
+        for (int j = i; j != -1; j = lambda[j]) H(i, j) -= H(k, i) * H(k, j);
+    }
   }
-  // x = L⁻¹ x: root first.
-  for (int i = 0; i < n; ++i) {
-    for (int j = lambda[i]; j != -1; j = lambda[j]) x(i) -= H(i, j) * x(j);
-    x(i) /= H(i, i);
-  }
-}
 
-// M⁻¹ column by column: L⁻ᵀ e_k lives on k's ancestors only; L⁻¹ then fills the column.
-template <class T, class Out>
-void ltlInverse(const std::vector<int>& lambda, const MatX<T>& H, Out&& Minv) {
-  const int n = static_cast<int>(H.rows());
-  Minv.setZero();
-  for (int k = 0; k < n; ++k) {
-    auto x = Minv.col(k);
-    x(k) = T(1);
-    // x = L⁻ᵀ e_k along the path k, λ(k), …
-    for (int i = k; i != -1; i = lambda[i]) {
+  // x = M⁻¹ x = L⁻¹ L⁻ᵀ x for one column.
+  template <class T, class Col>
+  static void solve(const std::vector<int>& lambda, const MatX<T>& H, Col&& x) {
+    const int n = static_cast<int>(H.rows());
+    // x = L⁻ᵀ x: leaves first.
+    for (int i = n - 1; i >= 0; --i) {
       x(i) /= H(i, i);
       for (int j = lambda[i]; j != -1; j = lambda[j]) x(j) -= H(i, j) * x(i);
     }
-    // x = L⁻¹ x over every DOF.
+    // x = L⁻¹ x: root first.
     for (int i = 0; i < n; ++i) {
       for (int j = lambda[i]; j != -1; j = lambda[j]) x(i) -= H(i, j) * x(j);
       x(i) /= H(i, i);
     }
   }
-  Minv.template triangularView<Eigen::StrictlyUpper>() = Minv.transpose();
-}
 
-// The method for TreeCholeskySolver (solvers/crba_solver.hpp).
-struct LtlMethod {
-  static constexpr const char* kName = "LTL";
-  template <class T>
-  static void factor(const std::vector<int>& lambda, MatX<T>& H) {
-    ltlFactor<T>(lambda, H);
-  }
+  // M⁻¹ column by column: L⁻ᵀ e_k lives on k's ancestors only; L⁻¹ then fills the column.
   template <class T, class Out>
-  static void inverse(const std::vector<int>& lambda, const MatX<T>& H, Out&& X) {
-    ltlInverse<T>(lambda, H, X);
+  static void inverse(const std::vector<int>& lambda, const MatX<T>& H, Out&& Minv) {
+    const int n = static_cast<int>(H.rows());
+    Minv.setZero();
+    for (int k = 0; k < n; ++k) {
+      auto x = Minv.col(k);
+      x(k) = T(1);
+      // x = L⁻ᵀ e_k along the path k, λ(k), …
+      for (int i = k; i != -1; i = lambda[i]) {
+        x(i) /= H(i, i);
+        for (int j = lambda[i]; j != -1; j = lambda[j]) x(j) -= H(i, j) * x(i);
+      }
+      // x = L⁻¹ x over every DOF.
+      for (int i = 0; i < n; ++i) {
+        for (int j = lambda[i]; j != -1; j = lambda[j]) x(i) -= H(i, j) * x(j);
+        x(i) /= H(i, i);
+      }
+    }
+    Minv.template triangularView<Eigen::StrictlyUpper>() = Minv.transpose();
   }
-  template <class T, class Col>
-  static void solve(const std::vector<int>& lambda, const MatX<T>& H, Col&& x) {
-    ltlSolve<T>(lambda, H, x);
-  }
-  static bool factorOk(const Eigen::MatrixXd& M) { return M.diagonal().allFinite(); }
 };
 
-using LtlSolver = TreeCholeskySolver<LtlMethod>;
+using LtlSolver = TreeCholeskySolver<Ltl>;
 
 }  // namespace minv

@@ -286,40 +286,30 @@ TEST_F(CliBadInput, ParentAfterChild) {
   expectFailure("solve --model bad.json --out out.h5", "parent");
 }
 
-TEST_F(CliBadInput, NonPositiveMass) {
-  JsonBody b;
-  b.mass = "0";
-  expectBadBody(b, "mass must be positive");
-  b.mass = "-2";
-  expectBadBody(b, "mass must be positive");
-}
+// One edited field of the first body, and what the message must say.
+struct BadBody {
+  std::string JsonBody::*field;
+  const char* value;
+  const char* telling;
+};
 
-TEST_F(CliBadInput, InertiaNotPositiveDefinite) {
-  JsonBody b;
-  b.inertia = "[[-0.1, 0, 0], [0, 0.1, 0], [0, 0, 0.05]]";
-  expectBadBody(b, "positive definite");
-}
-
-TEST_F(CliBadInput, InertiaBreaksTriangleInequality) {
-  JsonBody b;
-  b.inertia = "[[0.1, 0, 0], [0, 0.1, 0], [0, 0, 0.5]]";
-  expectBadBody(b, "triangle inequality");
-}
-
-TEST_F(CliBadInput, ZeroAxis) {
-  JsonBody b;
-  b.axis = "[0, 0, 0]";
-  expectBadBody(b, "axis is zero");
-}
-
-TEST_F(CliBadInput, HugeOrNonFiniteNumber) {
-  JsonBody b;
-  b.mass = "1e999";
-  expectBadBody(b, "1e999");
-  b.mass = "NaN";  // not JSON at all
-  expectBadBody(b, "invalid JSON");
-  b.com = "[0, Infinity, 0]";
-  expectBadBody(b, "invalid JSON");
+TEST_F(CliBadInput, BadBodies) {
+  const BadBody cases[] = {
+      {&JsonBody::mass, "0", "mass must be positive"},
+      {&JsonBody::mass, "-2", "mass must be positive"},
+      {&JsonBody::inertia, "[[-0.1, 0, 0], [0, 0.1, 0], [0, 0, 0.05]]", "positive definite"},
+      {&JsonBody::inertia, "[[0.1, 0, 0], [0, 0.1, 0], [0, 0, 0.5]]", "triangle inequality"},
+      {&JsonBody::axis, "[0, 0, 0]", "axis is zero"},
+      {&JsonBody::mass, "1e999", "1e999"},
+      {&JsonBody::mass, "NaN", "invalid JSON"},  // not JSON at all
+      {&JsonBody::com, "[0, Infinity, 0]", "invalid JSON"},
+  };
+  for (const BadBody& c : cases) {
+    SCOPED_TRACE(c.value);
+    JsonBody b;
+    b.*c.field = c.value;
+    expectBadBody(b, c.telling);
+  }
 }
 
 TEST_F(CliBadInput, MassMatrixWouldOverflow) {

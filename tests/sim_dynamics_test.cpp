@@ -31,14 +31,23 @@ Eigen::VectorXd randomVector(int n, std::uint64_t seed, double scale = 1.0) {
   return v;
 }
 
+// Kinematics (world coordinates, as the simulator has them) and articulated inertias at q.
+struct AtConfiguration {
+  Kinematics<double> kin;
+  Articulated<double> art;
+  AtConfiguration(const Model& m, const Eigen::VectorXd& q) : kin(m), art(m) {
+    computeKinematics<double>(m, q, kin);
+    articulatedInertias<double>(m, kin, art);
+  }
+};
+
 TEST(SimDynamics, AbaEqualsCrbaSolveAtRest) {
   const Centipede c = makeCentipede({.segments = 3, .segment_joint = SegmentJoint::Spherical});
   const Model& m = c.model;
   const Eigen::VectorXd q = randomConfiguration(m, 7);
-  Kinematics<double> kin(m);
-  computeKinematics<double>(m, q, kin);
-  Articulated<double> art(m);
-  articulatedInertias<double>(m, kin, art);
+  const AtConfiguration at(m, q);
+  const Kinematics<double>& kin = at.kin;
+  const Articulated<double>& art = at.art;
   AbaWorkspace ws(m);
   const Eigen::VectorXd tau = randomVector(m.nv(), 3);
   Eigen::VectorXd qdd(m.nv());
@@ -55,10 +64,9 @@ TEST(SimDynamics, AbaMomentumRateIsGravityWrench) {
   const Eigen::VectorXd q = randomConfiguration(m, 11);
   const Eigen::VectorXd v = randomVector(m.nv(), 5, 2.0);
   const Eigen::Vector3d g(0.3, -0.2, -9.81);
-  Kinematics<double> kin(m);
-  computeKinematics<double>(m, q, kin);
-  Articulated<double> art(m);
-  articulatedInertias<double>(m, kin, art);
+  const AtConfiguration at(m, q);
+  const Kinematics<double>& kin = at.kin;
+  const Articulated<double>& art = at.art;
   AbaWorkspace ws(m);
   Eigen::VectorXd qdd(m.nv());
   Eigen::VectorXd tau = randomVector(m.nv(), 9);
@@ -117,10 +125,9 @@ TEST(SimDynamics, TestImpulsesEqualJtMinvJ) {
   const Centipede c = makeCentipede({.segments = 4});
   const Model& m = c.model;
   const Eigen::VectorXd q = randomConfiguration(m, 3);
-  Kinematics<double> kin(m);
-  computeKinematics<double>(m, q, kin);
-  Articulated<double> art(m);
-  articulatedInertias<double>(m, kin, art);
+  const AtConfiguration at(m, q);
+  const Kinematics<double>& kin = at.kin;
+  const Articulated<double>& art = at.art;
   std::vector<int> bodies;
   std::vector<Vec6<double>> wrenches;
   Rng rng(4);

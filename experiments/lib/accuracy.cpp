@@ -64,13 +64,7 @@ struct Reference {
 
 Reference reference(const Model& model, const Eigen::VectorXd& q) {
   Reference r;
-  {
-    Kinematics<double> kin(model, Origin::EachRoot);
-    computeKinematics<double>(model, q, kin);
-    std::vector<Mat6<double>> Ic(model.nb());
-    r.M.resize(model.nv(), model.nv());
-    crba<double>(model, kin, Ic, r.M);
-  }
+  r.M = massMatrix(model, q);
   Kinematics<long double> kin(model, Origin::EachRoot);
   const VecX<long double> ql = q.cast<long double>();
   computeKinematics<long double>(model, ql, kin);

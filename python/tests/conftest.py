@@ -7,11 +7,10 @@ by default it is the folder above python/tests.
 import os
 import pathlib
 
-import numpy as np
 import pytest
-import scipy.linalg
 
 import minv
+from minv.reference import ScipyCholesky
 
 SOURCE_DIR = pathlib.Path(os.environ.get("MINV_SOURCE_DIR",
                                          pathlib.Path(__file__).resolve().parents[2]))
@@ -25,23 +24,6 @@ def cli_path():
         if candidate and pathlib.Path(candidate).is_file():
             return pathlib.Path(candidate)
     return None
-
-
-class ScipyCholesky:
-    """M⁻¹ by CRBA (minv.mass_matrix) and scipy's dense Cholesky: a correct Python solver."""
-
-    def prepare(self, model):
-        self.model = model
-        self.eye = np.eye(model.nv)
-
-    def configure(self, q):
-        self.factor = scipy.linalg.cho_factor(minv.mass_matrix(self.model, q))
-
-    def inverse(self):
-        return scipy.linalg.cho_solve(self.factor, self.eye)
-
-    def solve(self, R):
-        return scipy.linalg.cho_solve(self.factor, R)
 
 
 @pytest.fixture

@@ -98,6 +98,15 @@ def _problem(topology="branched", n=20, floating=True):
     return model, q, minv.mass_matrix(model, q)
 
 
+def _configured(name):
+    """(model, q, M, solver) with the solver prepared for _problem()'s model and configured."""
+    model, q, M = _problem()
+    solver = minv.make_solver(name)
+    solver.prepare(model)
+    solver.configure(q)
+    return model, q, M, solver
+
+
 @pytest.mark.parametrize("name", minv.solver_names())
 @pytest.mark.parametrize("topology,floating", [("serial", False), ("branched", True)])
 def test_every_solver_inverts_M(name, topology, floating):
@@ -120,10 +129,7 @@ def test_every_solver_inverts_M(name, topology, floating):
 
 
 def test_solve_shapes_and_conversions():
-    model, q, M = _problem()
-    solver = minv.make_solver("abi")
-    solver.prepare(model)
-    solver.configure(q)
+    model, q, M, solver = _configured("abi")
     X = solver.inverse()
     nv = model.nv
     r = np.arange(nv, dtype=float)
@@ -141,11 +147,8 @@ def test_solve_shapes_and_conversions():
 
 
 def test_inverse_out_writes_in_place():
-    model, q, M = _problem()
+    model, q, M, solver = _configured("abi")
     nv = model.nv
-    solver = minv.make_solver("abi")
-    solver.prepare(model)
-    solver.configure(q)
     X = np.full((nv, nv), np.nan, order="F")
     address = X.ctypes.data
     result = solver.inverse(out=X)
@@ -160,11 +163,8 @@ def test_inverse_out_writes_in_place():
 
 
 def test_solve_out_writes_in_place():
-    model, q, M = _problem()
+    model, q, M, solver = _configured("lapack")
     nv = model.nv
-    solver = minv.make_solver("lapack")
-    solver.prepare(model)
-    solver.configure(q)
     R = np.asfortranarray(np.random.default_rng(2).standard_normal((nv, 5)))
     Y = np.empty((nv, 5), order="F")
     address = Y.ctypes.data
@@ -186,10 +186,7 @@ def test_solve_out_writes_in_place():
     lambda nv: [[0.0] * nv] * nv,                                # not an array
 ], ids=["C", "float32", "shape", "1-D", "strided", "big-endian", "complex", "list"])
 def test_inverse_rejects_bad_out(make_bad):
-    model, q, M = _problem()
-    solver = minv.make_solver("abi")
-    solver.prepare(model)
-    solver.configure(q)
+    model, q, M, solver = _configured("abi")
     nv = model.nv
     with pytest.raises(ValueError, match=rf"out must be a writeable float64 array of shape "
                                          rf"\({nv}, {nv}\) in Fortran order: "
@@ -198,11 +195,8 @@ def test_inverse_rejects_bad_out(make_bad):
 
 
 def test_out_read_only_and_overlap_rejected():
-    model, q, M = _problem()
+    model, q, M, solver = _configured("abi")
     nv = model.nv
-    solver = minv.make_solver("abi")
-    solver.prepare(model)
-    solver.configure(q)
     X = np.empty((nv, nv), order="F")
     X.flags.writeable = False
     with pytest.raises(ValueError, match="read-only"):

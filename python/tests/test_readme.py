@@ -2,7 +2,7 @@
 
 Every ```python block of the README section "## Use it from Python" runs, in order, in one
 namespace, in a temporary folder (so results/compare.h5 lands there). The section is read from
-README.md, or from python/README_SECTION.md until it has been pasted into the README."""
+README.md."""
 import re
 
 import pytest
@@ -13,18 +13,15 @@ HEADING = "## Use it from Python"
 
 
 def readme_section():
-    """(text of the section, file it came from)."""
-    for path in (SOURCE_DIR / "README.md", SOURCE_DIR / "python" / "README_SECTION.md"):
-        if not path.is_file():
-            continue
-        lines = path.read_text(encoding="utf-8").splitlines()
-        if HEADING not in lines:
-            continue
-        start = lines.index(HEADING)
-        end = next((k for k in range(start + 1, len(lines)) if lines[k].startswith("## ")),
-                   len(lines))
-        return "\n".join(lines[start:end]), path
-    pytest.fail(f"no section '{HEADING}' in README.md or python/README_SECTION.md")
+    """(text of the section, the README's path)."""
+    path = SOURCE_DIR / "README.md"
+    lines = path.read_text(encoding="utf-8").splitlines()
+    if HEADING not in lines:
+        pytest.fail(f"no section '{HEADING}' in README.md")
+    start = lines.index(HEADING)
+    end = next((k for k in range(start + 1, len(lines)) if lines[k].startswith("## ")),
+               len(lines))
+    return "\n".join(lines[start:end]), path
 
 
 def python_blocks(text):
