@@ -1,9 +1,10 @@
 """Figure 4: simulated time cost of the walking centipede vs number of legs, for the
 contact-space paths abi (Θ(nm) impulse sweeps), lapack and ltdl (factor M once per step, then
-back-substitute) and test-impulse (spatial test impulses, no generalized product), each split
-by component. Reads results/centipede.h5 (`minv simulate sweep`); the paper's y axis is the
-total time of its 1000-step run, so per-step means are scaled to 1000 steps (points whose run
-had fewer steps are extrapolated that way and drawn hollow)."""
+back-substitute), test-impulse (spatial test impulses, no generalized product) and
+contact-inertia (the Θ(n + m²) contact-space inertia recursion), each split by component.
+Reads results/centipede.h5 (`minv simulate sweep`); the paper's y axis is the total time of
+its 1000-step run, so per-step means are scaled to 1000 steps (points whose run had fewer
+steps are extrapolated that way and drawn hollow)."""
 import h5py
 import matplotlib.pyplot as plt
 import numpy as np
@@ -11,7 +12,7 @@ import numpy as np
 from common import provenance_line, result_path, save
 
 PATHS = [("abi", "tab:red", "-."), ("lapack", "tab:blue", "-"), ("ltdl", "tab:green", "--"),
-         ("test-impulse", "black", ":")]
+         ("test-impulse", "black", ":"), ("contact-inertia", "tab:purple", "-x")]
 COMPONENTS = ["dynamics", "collision", "matrices", "solve", "update"]
 
 

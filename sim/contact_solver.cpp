@@ -4,6 +4,7 @@
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
+#include <vector>
 
 namespace minv::sim {
 
@@ -57,8 +58,136 @@ ContactResiduals solveBoundQP(const Eigen::MatrixXd& G, const Eigen::VectorXd& g
   return r;
 }
 
+namespace {
+
+// The residuals measured on λ and v⁺ = Aλ + v0 themselves: penetration and cone.
+void residualsOnLambda(const ContactProblem& p, const Eigen::VectorXd& vplus, ContactSolution& s) {
+  const int nc = static_cast<int>(p.b.size()), k = p.k;
+  const double inradius = std::cos(std::numbers::pi / k);
+  for (int c = 0; c < nc; ++c) {
+    s.residuals.penetration = std::max(s.residuals.penetration, -(vplus(3 * c) + p.b(c)));
+    const double fn = s.lambda(3 * c);
+    double out = std::max(0.0, -fn);
+    for (int j = 0; j < k; ++j) {  // facet normals of the polygon μ fn conv{t_j}
+      const double th = 2 * std::numbers::pi * (j + 0.5) / k;
+      out = std::max(out, std::cos(th) * s.lambda(3 * c + 1) + std::sin(th) * s.lambda(3 * c + 2) -
+                              p.mu * fn * inradius);
+    }
+    s.residuals.cone = std::max(s.residuals.cone, out);
+  }
+  s.residuals.penetration = std::max(0.0, s.residuals.penetration);
+}
+
+void checkProblem(const ContactProblem& p) {
+  const int nc = static_cast<int>(p.b.size());
+  if (p.A.rows() != 3 * nc || p.A.cols() != 3 * nc || p.v0.size() != 3 * nc)
+    throw std::invalid_argument("contact problem: A must be 3nc x 3nc and v0 3nc");
+  if (p.k < 3) throw std::invalid_argument("the linearised friction cone needs k >= 3 directions");
+}
+
+// g_c = Wᵀ(u_c + [b_c; 0; 0]): contact c's generator velocities from its contact velocities.
+inline void generatorVelocities(const Eigen::MatrixXd& W, const Eigen::VectorXd& u,
+                                const Eigen::VectorXd& b, int c, int k, double* g) {
+  const double un = u(3 * c) + b(c), u1 = u(3 * c + 1), u2 = u(3 * c + 2);
+  for (int j = 0; j < k; ++j) g[j] = W(0, j) * un + W(1, j) * u1 + W(2, j) * u2;
+}
+
+}  // namespace
+
 ContactSolution solveMaxDissipation(const ContactProblem& p, const Eigen::VectorXd& beta,
                                     const ContactSolverOptions& o) {
+  checkProblem(p);
+  const int nc = static_cast<int>(p.b.size()), k = p.k, m = k * nc;
+  const Eigen::MatrixXd W = coneGenerators(p.mu, k);
+  const int inner = std::max(1, o.inner_sweeps);
+  ContactSolution s;
+  s.beta = beta.size() == m ? Eigen::VectorXd(beta.cwiseMax(0.0)) : Eigen::VectorXd::Zero(m);
+  s.lambda.resize(3 * nc);
+  ContactResiduals& r = s.residuals;
+  if (nc == 0) return s;
+  // Diagonal blocks G_cc = Wᵀ A_cc W (k×k each, side by side); λ_c = W β_c.
+  Eigen::MatrixXd Gd(k, m);
+  for (int c = 0; c < nc; ++c) {
+    Gd.middleCols(k * c, k).noalias() = W.transpose() * (p.A.block<3, 3>(3 * c, 3 * c) * W).eval();
+    s.lambda.segment<3>(3 * c).noalias() = W * s.beta.segment(k * c, k);
+  }
+  // u = Aλ + v0: the contact velocities, kept up to date as λ changes.
+  Eigen::VectorXd u = p.v0;
+  const bool warm = s.beta.any();
+  if (warm) u.noalias() += p.A * s.lambda;
+  // The scale of the relative test: ‖g0‖∞, g0 = Wᵀ(v0 + [b; 0; 0]).
+  double g0max = 0;
+  Eigen::VectorXd g(m);
+  for (int c = 0; c < nc; ++c) generatorVelocities(W, p.v0, p.b, c, k, g.data() + k * c);
+  g0max = g.cwiseAbs().maxCoeff();
+  const double tol = o.tolerance * std::max(g0max, o.floor);
+  auto kkt = [&] {
+    double e = 0;
+    for (int c = 0; c < nc; ++c) generatorVelocities(W, u, p.b, c, k, g.data() + k * c);
+    for (int j = 0; j < m; ++j) e = std::max(e, std::abs(std::min(s.beta(j), g(j))));
+    return e;
+  };
+  r.converged = false;
+  std::vector<double> gcv(k), oldv(k);
+  double *gc = gcv.data(), *old = oldv.data();
+  Eigen::Vector3d dl;
+  for (int it = 1; it <= o.max_iterations; ++it) {
+    // One block Gauss-Seidel sweep: contact by contact, its k generators by coordinate descent
+    // on the local gradient (exact through G_cc), then one 3-column update of u.
+    for (int c = 0; c < nc; ++c) {
+      double* bc = s.beta.data() + k * c;
+      const double* G = Gd.data() + k * k * c;
+      generatorVelocities(W, u, p.b, c, k, gc);
+      bool changed = false;
+      for (int j = 0; j < k; ++j) old[j] = bc[j];
+      for (int sweep = 0; sweep < inner; ++sweep) {
+        bool moved = false;
+        for (int j = 0; j < k; ++j) {
+          const double d = G[k * j + j];
+          if (!(d > 0)) continue;
+          const double nb = std::max(0.0, bc[j] - gc[j] / d);
+          const double delta = nb - bc[j];
+          if (delta != 0) {
+            bc[j] = nb;
+            for (int i = 0; i < k; ++i) gc[i] += delta * G[k * j + i];
+            moved = true;
+          }
+        }
+        changed |= moved;
+        if (!moved) break;
+      }
+      if (!changed) continue;
+      dl.setZero();
+      for (int j = 0; j < k; ++j) dl += (bc[j] - old[j]) * W.col(j);
+      s.lambda.segment<3>(3 * c) += dl;
+      u.noalias() += p.A.middleCols<3>(3 * c) * dl;
+    }
+    // No drift from the incremental updates.
+    if (it % 64 == 0) {
+      for (int c = 0; c < nc; ++c)
+        s.lambda.segment<3>(3 * c).noalias() = W * s.beta.segment(k * c, k);
+      u = p.v0;
+      u.noalias() += p.A * s.lambda;
+    }
+    r.iterations = it;
+    if (kkt() <= tol) {
+      r.converged = true;
+      break;
+    }
+  }
+  // λ = Wβ and v⁺ = Aλ + v0 afresh; the KKT residual and complementarity on them.
+  for (int c = 0; c < nc; ++c) s.lambda.segment<3>(3 * c).noalias() = W * s.beta.segment(k * c, k);
+  u = p.v0;
+  u.noalias() += p.A * s.lambda;
+  r.kkt = kkt();
+  for (int j = 0; j < m; ++j)
+    r.complementarity = std::max(r.complementarity, std::abs(s.beta(j) * g(j)));
+  residualsOnLambda(p, u, s);
+  return s;
+}
+
+ContactSolution solveMaxDissipationReference(const ContactProblem& p, const Eigen::VectorXd& beta,
+                                             const ContactSolverOptions& o) {
   const int nc = static_cast<int>(p.b.size()), k = p.k;
   if (p.A.rows() != 3 * nc || p.A.cols() != 3 * nc || p.v0.size() != 3 * nc)
     throw std::invalid_argument("contact problem: A must be 3nc x 3nc and v0 3nc");
@@ -81,19 +210,7 @@ ContactSolution solveMaxDissipation(const ContactProblem& p, const Eigen::Vector
   for (int c = 0; c < nc; ++c) s.lambda.segment<3>(3 * c) = W * s.beta.segment(k * c, k);
   // Residuals on λ and v⁺ themselves.
   const Eigen::VectorXd vplus = p.A * s.lambda + p.v0;
-  const double inradius = std::cos(std::numbers::pi / k);
-  for (int c = 0; c < nc; ++c) {
-    s.residuals.penetration = std::max(s.residuals.penetration, -(vplus(3 * c) + p.b(c)));
-    const double fn = s.lambda(3 * c);
-    double out = std::max(0.0, -fn);
-    for (int j = 0; j < k; ++j) {  // facet normals of the polygon μ fn conv{t_j}
-      const double th = 2 * std::numbers::pi * (j + 0.5) / k;
-      out = std::max(out, std::cos(th) * s.lambda(3 * c + 1) + std::sin(th) * s.lambda(3 * c + 2) -
-                              p.mu * fn * inradius);
-    }
-    s.residuals.cone = std::max(s.residuals.cone, out);
-  }
-  s.residuals.penetration = std::max(0.0, s.residuals.penetration);
+  residualsOnLambda(p, vplus, s);
   return s;
 }
 

@@ -18,6 +18,7 @@ double since(Clock::time_point& t0) {
 std::vector<std::string> simulationPaths() {
   std::vector<std::string> names = solverNames();
   names.push_back(kTestImpulsePath);
+  names.push_back(kContactInertiaPath);
   return names;
 }
 
@@ -28,8 +29,9 @@ Simulator::Simulator(const Model& model, std::vector<ContactPoint> points, SimOp
       kin_(model),
       art_(model),
       aba_(model),
-      abi_(model) {
-  if (o_.path != kTestImpulsePath) {
+      abi_(model),
+      cia_(model, 3 * static_cast<int>(points_.size())) {
+  if (o_.path != kTestImpulsePath && o_.path != kContactInertiaPath) {
     solver_ = makeSolver(o_.path);  // throws for an unknown name
     std::string why;
     if (!solver_->supports(model_, &why))
@@ -112,14 +114,18 @@ void Simulator::step() {
 
   if (nc == 0) {
     lambda_.resize(0);
+    prob_.A.resize(0, 0), prob_.v0.resize(0), prob_.b.resize(0), warm_beta_.resize(0);
     residuals_ = ContactResiduals{};
     v_ = vstar_;
     integrate(model_, q_, v_, h);
   } else {
-    // matrices: A = Jᵀ M⁻¹ J.
-    A_.resize(m, m);
-    if (!solver_) {
-      testImpulses(model_, kin_, art_, abi_, bodies, wrenches, A_, scratch_);
+    // matrices: A = Jᵀ M⁻¹ J, in place in the contact problem.
+    Eigen::MatrixXd& A = prob_.A;
+    A.resize(m, m);
+    if (o_.path == kContactInertiaPath) {
+      contactInertia<double>(model_, kin_, art_, bodies, wrenches, cia_, A);
+    } else if (!solver_) {
+      testImpulses(model_, kin_, art_, abi_, bodies, wrenches, A, scratch_);
     } else {
       solver_->configure(q_);
       J_.setZero(model_.nv(), m);
@@ -130,28 +136,26 @@ void Simulator::step() {
       // column r of A (= row r, A is symmetric) is Σ_{d on the path} J(d, r) Xᵀ(:, d), with
       // Xᵀ stored so that those are contiguous axpys. Θ(m² · depth), not Θ(m² · nv).
       Xt_ = X_.transpose();
-      A_.setZero();
+      A.setZero();
       for (int r = 0; r < m; ++r)
         for (int i = bodies[r]; i >= 0; i = model_.parent(i))
           for (int d = model_.vIdx(i); d < model_.vIdx(i) + model_.nvOf(i); ++d)
-            A_.col(r).noalias() += J_(d, r) * Xt_.col(d);
-      A_ = (0.5 * (A_ + A_.transpose())).eval();
+            A.col(r).noalias() += J_(d, r) * Xt_.col(d);
+      A = (0.5 * (A + A.transpose())).eval();
     }
     st.matrices = since(t0);
 
     // solve: maximum dissipation, warm started.
-    ContactProblem prob;
-    prob.A = A_;
-    prob.v0 = v0;
-    prob.b = Eigen::Map<const Eigen::VectorXd>(bias.data(), nc);
-    prob.mu = o_.mu;
-    prob.k = k;
-    Eigen::VectorXd beta(k * nc);
+    prob_.v0 = v0;
+    prob_.b = Eigen::Map<const Eigen::VectorXd>(bias.data(), nc);
+    prob_.mu = o_.mu;
+    prob_.k = k;
+    warm_beta_.resize(k * nc);
     for (int c = 0; c < nc; ++c) {
       const Eigen::VectorXd& w = warm_[active_[c]];
-      beta.segment(k * c, k) = w.size() == k ? w : Eigen::VectorXd::Zero(k);
+      warm_beta_.segment(k * c, k) = w.size() == k ? w : Eigen::VectorXd::Zero(k);
     }
-    ContactSolution sol = solveMaxDissipation(prob, beta, o_.contact);
+    ContactSolution sol = solveMaxDissipation(prob_, warm_beta_, o_.contact);
     for (int c = 0; c < nc; ++c) warm_[active_[c]] = sol.beta.segment(k * c, k);
     lambda_ = sol.lambda;
     residuals_ = sol.residuals;

@@ -15,10 +15,14 @@
 //                  sparsity (each column lives on one body's path to the root);
 //                  "test-impulse": spatial test impulses at the contact points through the
 //                  articulated inertias already computed for ABA (sim/dynamics.hpp), no
-//                  generalized-coordinate product, O(nb·m + m²).
+//                  generalized-coordinate product, O(nb·m + m²);
+//                  "contact-inertia": the recursion of sim/contact_inertia.hpp on the same
+//                  articulated inertias, every pair of directions meeting at its lowest
+//                  common ancestor, Θ(n + m²).
 //   solve        the maximum-dissipation contact impulses λ (sim/contact_solver.hpp), warm
 //                started from the previous step's generator weights of the same point.
-//   update       v⁺ = v* + M⁻¹Jλ (solver paths: X λ; test-impulse: one impulse sweep), then
+//   update       v⁺ = v* + M⁻¹Jλ (solver paths: X λ; test-impulse and contact-inertia: one
+//                impulse sweep), then
 //                q ← q ⊕ h v⁺ (sim/dynamics.hpp). This is semi-implicit ("symplectic")
 //                Euler: the paper's explicit Euler step with the new velocity, as every
 //                velocity-level contact method integrates.
@@ -32,6 +36,7 @@
 
 #include "core/articulated.hpp"
 #include "core/kinematics.hpp"
+#include "sim/contact_inertia.hpp"
 #include "sim/contact_solver.hpp"
 #include "sim/dynamics.hpp"
 #include "solvers/solver.hpp"
@@ -39,8 +44,9 @@
 namespace minv::sim {
 
 constexpr const char* kTestImpulsePath = "test-impulse";
+constexpr const char* kContactInertiaPath = "contact-inertia";
 
-// Every contact-space path: the registry's solvers, then "test-impulse".
+// Every contact-space path: the registry's solvers, then "test-impulse" and "contact-inertia".
 std::vector<std::string> simulationPaths();
 
 struct SimOptions {
@@ -87,6 +93,10 @@ class Simulator {
   const ContactResiduals& lastResiduals() const { return residuals_; }
   const Eigen::VectorXd& lastImpulses() const { return lambda_; }  // 3 per active contact
   const std::vector<int>& activeContacts() const { return active_; }
+  // The last step's contact problem (A, v0, b, μ, k; nothing if it had no contact) and the
+  // warm start β it was solved from: for recording problems and replaying them.
+  const ContactProblem& lastProblem() const { return prob_; }
+  const Eigen::VectorXd& lastWarmStart() const { return warm_beta_; }
   // Kinematics at the configuration of the last step's start.
   const Kinematics<double>& kinematics() const { return kin_; }
   const SimOptions& options() const { return o_; }
@@ -102,8 +112,10 @@ class Simulator {
   Articulated<double> art_;
   AbaWorkspace aba_;
   ImpulseWorkspace abi_;
-  Eigen::VectorXd q_, v_, tau_, qdd_, vstar_, dv_, scratch_, lambda_;
-  Eigen::MatrixXd J_, X_, Xt_, A_;
+  ContactInertiaWorkspace<double> cia_;
+  Eigen::VectorXd q_, v_, tau_, qdd_, vstar_, dv_, scratch_, lambda_, warm_beta_;
+  Eigen::MatrixXd J_, X_, Xt_;
+  ContactProblem prob_;                // A is built in place here
   std::vector<Eigen::VectorXd> warm_;  // per contact point, k generator weights
   std::vector<int> active_;
   ContactResiduals residuals_;

@@ -38,6 +38,7 @@ TEST(Registry, NamesAreValidated) {
   EXPECT_NE(solverNameProblem(std::string(33, 'a')), "");
   EXPECT_NE(solverNameProblem("all"), "");
   EXPECT_NE(solverNameProblem("test-impulse"), "");
+  EXPECT_NE(solverNameProblem("contact-inertia"), "");
   EXPECT_NE(thrown([] { registerSolver(entryNamed("bad name")); }).find("character ' '"),
             std::string::npos);
 }

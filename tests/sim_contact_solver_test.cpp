@@ -1,14 +1,19 @@
 // The contact solver (sim/contact_solver.hpp) on random contact-space instances: KKT,
 // complementarity, penetration and cone residuals under tolerance, and the optimum against
-// brute-force enumeration of active sets on small instances.
+// brute-force enumeration of active sets on small instances; the block Gauss–Seidel solve
+// against the former implementation (solveMaxDissipationReference) on random problems and on
+// problems recorded from a walking centipede: the same λ and v⁺ within the tolerance.
 #include <gtest/gtest.h>
 
 #include <Eigen/Cholesky>
 #include <Eigen/QR>
 #include <cmath>
 
+#include "generators/centipede.hpp"
 #include "generators/random_tree.hpp"
 #include "sim/contact_solver.hpp"
+#include "sim/gait.hpp"
+#include "sim/simulator.hpp"
 
 namespace minv::sim {
 namespace {
@@ -156,6 +161,120 @@ TEST(SimContactSolver, SingleContactCases) {
   p.v0 = Eigen::Vector3d(0.5, 0, 0);
   s = solveMaxDissipation(p, {}, o);
   EXPECT_LT(s.lambda.norm(), 1e-12);
+}
+
+// The velocity scale of the relative test, max(‖g0‖∞, floor), g0 = Wᵀ(v0 + [b; 0; 0]).
+double velocityScale(const ContactProblem& p, double floor) {
+  const Eigen::MatrixXd W = coneGenerators(p.mu, p.k);
+  double g0 = 0;
+  for (int c = 0; c < p.b.size(); ++c) {
+    Eigen::Vector3d vc = p.v0.segment<3>(3 * c);
+    vc(0) += p.b(c);
+    g0 = std::max(g0, (W.transpose() * vc).cwiseAbs().maxCoeff());
+  }
+  return std::max(g0, floor);
+}
+
+// Both solves of one problem from one warm start: both converged, the same v⁺ = Aλ + v0
+// within 100× the absolute tolerance, the same objective ½λᵀAλ + λᵀ(v0 + [b; 0; 0]), and,
+// where A is not singular (λ unique), the same λ within lambda_rel relative.
+void expectSameSolution(const ContactProblem& p, const Eigen::VectorXd& warm,
+                        const ContactSolverOptions& o, double lambda_rel, const std::string& what) {
+  const ContactSolution ref = solveMaxDissipationReference(p, warm, o);
+  const ContactSolution s = solveMaxDissipation(p, warm, o);
+  const double tol = o.tolerance * velocityScale(p, o.floor);
+  ASSERT_TRUE(ref.residuals.converged) << what;
+  EXPECT_TRUE(s.residuals.converged) << what;
+  EXPECT_LE(s.residuals.kkt, tol) << what;
+  const Eigen::VectorXd dv = p.A * (s.lambda - ref.lambda);
+  EXPECT_LT(dv.cwiseAbs().maxCoeff(), 100 * tol) << what;
+  Eigen::VectorXd vb = p.v0;
+  for (int c = 0; c < p.b.size(); ++c) vb(3 * c) += p.b(c);
+  auto objective = [&](const Eigen::VectorXd& l) { return 0.5 * l.dot(p.A * l) + l.dot(vb); };
+  EXPECT_NEAR(objective(s.lambda), objective(ref.lambda),
+              100 * tol * std::max(1.0, ref.lambda.lpNorm<1>()))
+      << what;
+  if (lambda_rel > 0) {
+    EXPECT_LT((s.lambda - ref.lambda).norm(), lambda_rel * std::max(1e-12, ref.lambda.norm()))
+        << what;
+  }
+  EXPECT_LE(s.residuals.penetration, std::max(100 * tol, 2 * ref.residuals.penetration)) << what;
+  EXPECT_LT(s.residuals.cone, 1e-12 * std::max(1.0, s.lambda.norm())) << what;
+}
+
+// Random problems (a third singular), cold and warm started, at the default tolerance and a
+// tight one, with one and with several inner passes per contact.
+TEST(SimContactSolver, BlockSolveMatchesReferenceOnRandomProblems) {
+  for (int trial = 0; trial < 30; ++trial) {
+    const int nc = 1 + trial % 15;
+    const int rank = trial % 3 == 0 ? std::max(1, 3 * nc / 2) : 3 * nc;
+    const ContactProblem p = randomProblem(nc, rank, 900 + trial);
+    Rng rng(1900 + trial);
+    Eigen::VectorXd warm(p.k * nc);
+    for (int j = 0; j < warm.size(); ++j) warm(j) = rng.uniform() < 0.5 ? 0.0 : rng.uniform();
+    for (int inner : {1, 3}) {
+      for (double tolerance : {1e-9, 1e-12}) {
+        ContactSolverOptions o;
+        o.tolerance = tolerance;
+        o.max_iterations = 200000;
+        o.inner_sweeps = inner;
+        const std::string what = "trial " + std::to_string(trial) + " inner " +
+                                 std::to_string(inner) + " tol " + std::to_string(tolerance);
+        const double lambda_rel = rank == 3 * nc ? 1e-6 : -1;
+        expectSameSolution(p, {}, o, lambda_rel, what + " cold");
+        expectSameSolution(p, warm, o, lambda_rel, what + " warm");
+      }
+    }
+  }
+}
+
+// With one inner pass the block solve takes, step for step, the reference's coordinate steps:
+// the same iteration count (up to one, for rounding at the threshold) and the same β.
+TEST(SimContactSolver, OneInnerPassIsTheReferenceIteration) {
+  for (int trial = 0; trial < 12; ++trial) {
+    const ContactProblem p = randomProblem(2 + trial, 3 * (2 + trial), 1300 + trial);
+    ContactSolverOptions o;
+    o.tolerance = 1e-10;
+    o.max_iterations = 100000;
+    o.inner_sweeps = 1;
+    const ContactSolution ref = solveMaxDissipationReference(p, {}, o);
+    const ContactSolution s = solveMaxDissipation(p, {}, o);
+    EXPECT_LE(std::abs(s.residuals.iterations - ref.residuals.iterations), 1) << trial;
+    EXPECT_LT((s.beta - ref.beta).cwiseAbs().maxCoeff(), 1e-8 * (1 + ref.beta.norm())) << trial;
+  }
+}
+
+// Problems recorded from a walking centipede (the simulator's own A, v0, b and warm starts
+// after 5 … 60 steps, yaw and spherical segment joints): the default solve reaches the
+// reference's λ and v⁺ within the tolerance.
+TEST(SimContactSolver, BlockSolveMatchesReferenceOnRecordedCentipedeProblems) {
+  for (SegmentJoint joint : {SegmentJoint::Yaw, SegmentJoint::Spherical}) {
+    const Centipede c = makeCentipede({.segments = 8, .segment_joint = joint});
+    CentipedeGait gait(c);
+    SimOptions so;
+    so.dt = 1e-3;
+    so.path = kContactInertiaPath;
+    std::vector<ContactPoint> tips;
+    for (int l = 0; l < c.legs(); ++l) tips.push_back({c.lower_body[l], c.tip});
+    Simulator sim(c.model, tips, so);
+    sim.setController([&](double t, const Eigen::VectorXd& q, const Eigen::VectorXd& v,
+                          Eigen::VectorXd& tau) { gait(t, q, v, tau); });
+    sim.setState(centipedeStanding(c), Eigen::VectorXd::Zero(c.model.nv()));
+    int recorded = 0;
+    for (int step = 1; step <= 60; ++step) {
+      sim.step();
+      if (step % 5 != 0 || sim.lastContacts() == 0) continue;
+      const std::string what =
+          std::string(segmentJointName(joint)) + " step " + std::to_string(step);
+      expectSameSolution(sim.lastProblem(), sim.lastWarmStart(), so.contact, 1e-5, what);
+      ContactSolverOptions tight = so.contact;
+      tight.tolerance = 1e-12;
+      tight.max_iterations = 100000;
+      expectSameSolution(sim.lastProblem(), sim.lastWarmStart(), tight, 1e-8, what + " tight");
+      ++recorded;
+    }
+    EXPECT_GE(recorded, 6);
+  }
 }
 
 }  // namespace

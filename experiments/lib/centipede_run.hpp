@@ -54,7 +54,7 @@ CentipedeRunResult runCentipede(const CentipedeRunOptions& options, std::ostream
 
 struct CentipedeSweepOptions {
   std::vector<int> segments{5, 10, 20, 40};
-  std::vector<std::string> solvers{"abi", "lapack", "ltdl", kTestImpulsePath};
+  std::vector<std::string> solvers{"abi", "lapack", "ltdl", kTestImpulsePath, kContactInertiaPath};
   int steps = 100;
   double dt = 1e-5;
   std::string out;

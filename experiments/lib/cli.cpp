@@ -7,9 +7,11 @@
 //   minv solve --model FILE [--free-root] [--solver NAME|all] [--q-seed S | --q FILE]
 //              [--rhs M] [--rhs-seed S] --out FILE.h5
 //   minv generate --topology centipede --segments S [--segment-joint yaw|spherical] --out FILE
-//   minv simulate centipede [--segments S] [--steps K] [--dt H] [--solver NAME|test-impulse]
+//   minv simulate centipede [--segments S] [--steps K] [--dt H]
+//                           [--solver NAME|test-impulse|contact-inertia]
 //                 [--frames F] [--segment-joint yaw|spherical] [--out FILE.h5]   (sim/)
-//   minv simulate sweep [--segments 5,10,20,40] [--solvers abi,lapack,ltdl,test-impulse]
+//   minv simulate sweep [--segments 5,10,20,40]
+//                       [--solvers abi,lapack,ltdl,test-impulse,contact-inertia]
 //                 [--steps K] [--dt H] --out FILE.h5   (Figure 4; appended to and resumed)
 //   minv solvers
 //   minv check [--solver NAME|all] [--max-n N]   (solvers/conformance.hpp; exit 1 if a check
@@ -610,7 +612,8 @@ int runCli(int argc, char** argv, const std::string& program) {
   scen->add_option("--segments", sm.run.segments, "Body segments (>= 1)")->capture_default_str();
   scen->add_option("--steps", sm.run.steps, "Time steps")->capture_default_str();
   scen->add_option("--dt", sm.run.dt, "Step size (s)")->capture_default_str();
-  scen->add_option("--solver", sm.run.solver, "Contact-space path: a solver name or test-impulse")
+  scen->add_option("--solver", sm.run.solver,
+                   "Contact-space path: a solver name, test-impulse or contact-inertia")
       ->capture_default_str();
   scen->add_option("--segment-joint", sm.run.segment_joint, "yaw | spherical")
       ->capture_default_str();

@@ -1,0 +1,341 @@
+// The contact-space inertia A = Jᵀ M⁻¹ J in Θ(n + m²), without M⁻¹J: a recursion over the tree
+// that meets every pair of contact directions at their lowest common ancestor.
+//
+// References: Wensing, Featherstone & Orin, "A reduced-order recursive algorithm for the
+// computation of the operational-space inertia matrix", ICRA 2012 (the extended-force-
+// propagator algorithm, EFPA, O(N + md + m²) for m end-effectors in a tree of depth d);
+// Sathya, Decré & Swevers, "PV-OSIMr: a lowest order complexity algorithm for computing the
+// Delassus matrix" (2024), O(n + m²) by composing force and motion propagators, the bound
+// this code attains the same way (composite propagators along the chains that carry one
+// subtree's contacts). Articulated-body quantities: Featherstone, Rigid Body Dynamics
+// Algorithms (RBDA, 2008), §7.2-7.3. The derivation below is ours, in RBDA notation, world
+// frame, 0-based bodies with λ(i) < i.
+//
+// Notation. Per body i with k_i DOFs (core/articulated.hpp): S_i (6×k_i), IA_i, U_i = IA_i S_i,
+// D_i = S_iᵀ U_i. The force propagator of joint i, Pᵀ_i = 1 − U_i D_i⁻¹ S_iᵀ, carries a spatial
+// force (impulse) applied to i's articulated body to the force it exerts on λ(i) (the backward
+// step of the impulse sweeps, core/impulse_sweeps.hpp); its transpose P_i = 1 − S_i D_i⁻¹ U_iᵀ
+// carries λ(i)'s velocity change to the part of i's that i does not produce itself;
+// K_i = S_i D_i⁻¹ S_iᵀ is the velocity change the joint adds per unit force on i's articulated
+// body. A unit impulse f at body b gives, with f_b = f and f_λ(j) = Pᵀ_j f_j on b's path,
+//   Δv_i = P_i Δv_λ(i) + K_i f_i  on b's path (Δv_λ(root) = 0),  Δv_i = P_i Δv_λ(i)  elsewhere.
+// Hence, for a second impulse f' at b' whose lowest common ancestor with b is a,
+//   f'ᵀ Δv_b' = f'ᵀ_a Δv_a = Σ_{j = a, λ(a), …, root} f'ᵀ_j K_j f_j = f'ᵀ_a Ω_a f_a,
+//   Ω_i = K_i + P_i Ω_λ(i) Pᵀ_i   (Ω_λ(root) = 0),
+// where f_a, f'_a are f and f' propagated to a (Pᵀ of every joint strictly below a on their
+// paths) and Ω_i is the apparent inverse inertia of body i within the whole tree: the
+// velocity change of i per unit impulse on i (Ω_root = IA_root⁻¹ for a floating base, whose
+// S_0 is invertible). Every
+// entry of A is one such bilinear form: A_rc = f_{r,a}ᵀ Ω_a f_{c,a}, a = LCA(b_r, b_c);
+// directions in different trees of a forest do not couple (A_rc = 0).
+//
+// Algorithm. Directions are sorted by the preorder position of their body (stable), so that
+// the directions of every subtree occupy a contiguous range [s_i, e_i) and those on body i
+// itself come first. (1) Ω_i top-down, only over bodies with a contact in their subtree, with
+// W = Ω_λ(i) U_i D_i⁻¹, Q = D_i⁻ᵀU_iᵀ W + D_i⁻¹, E = W − ½ S_i Q:  Ω_i = Ω_λ(i) − S_i Eᵀ − E S_iᵀ.
+// (2) Bottom-up in reverse preorder, the propagated forces F (m×6, a row per direction) climb
+// the tree. A body with contacts of its own or with two or more children carrying contacts is
+// a branch node: each child's range is brought up to it (F ← F P_c, i.e. f ← Pᵀ_c f, or by a
+// pending composite propagator), and every pair whose LCA it is gets its block
+// A(X, Y) = F_X Ω_a F_Yᵀ, written with its mirror: own × [s_a, e_a) and child range ×
+// [its end, e_a). Any other body on a contact path (one child with contacts, no contacts of
+// its own) only composes the pending propagator Φ ← Pᵀ_c Φ (6×6), or, for ≤ 6 directions,
+// applies Pᵀ_c to them at once. Every pair is written exactly once (both triangles).
+//
+// Cost. (1) ≈ 85 mul + 85 add per 1-DOF body on a contact path; (2) per direction one
+// propagation per branch node above it (12·k mul + 12·k add for k DOFs, 36 + 30 for a
+// composite), at most 2·(contact bodies) − 1 branch nodes, and ≤ 6 directions through any
+// pass-through body; then 6 mul + 6 add per entry of one triangle of A plus 36 mul + 30 add
+// per direction of the smaller side of each block for F Ω. In all Θ(n + m²) with the Θ(m²)
+// term ≈ 6·m²/2 multiply-adds; the centipede's counts are in paper/contact_inertia_counts.md.
+//
+// Contract. kin and art hold the world-frame S, U, D⁻¹ and U D⁻¹ of one configuration
+// (core/kinematics.hpp, core/articulated.hpp); direction r is the unit spatial force (wrench)
+// wrenches[r] on bodies[r], about the world origin; A is m×m on entry (the caller sizes it)
+// and holds A_rc = (J_rᵀ)ᵀ M⁻¹ J_c on exit, exactly symmetric, every entry written. Any tree:
+// forests, several directions on one body, directions on a (floating) root, joints of 1, 3 or
+// 6 DOFs. The workspace is built once per tree for up to `max_columns` directions; the kernel
+// does not allocate unless m exceeds that capacity (then it grows it once). Templated on the
+// scalar: the Counted instantiation counts the very code that runs on double.
+#pragma once
+
+#include <Eigen/Core>
+#include <algorithm>
+#include <stdexcept>
+#include <type_traits>
+#include <vector>
+
+#include "core/articulated.hpp"
+#include "core/impulse_sweeps.hpp"
+#include "core/kinematics.hpp"
+#include "core/model.hpp"
+
+namespace minv::sim {
+
+// Scratch of contactInertia() for one tree; per-tree tables are built here.
+template <class T>
+struct ContactInertiaWorkspace {
+  using RowsX6 = Eigen::Matrix<T, Eigen::Dynamic, 6>;
+  static constexpr int kDirectMax = 6;  // pass-through: apply Pᵀ directly up to this many rows
+  static constexpr int kTile = 64;      // scatter tile when directions arrive out of preorder
+
+  // Per tree: preorder of the bodies, each body's position in it, children (CSR, by index).
+  std::vector<int> order, pre, child_start, children;
+  // Per body, per call: directions on the body, in its subtree, range start; Ω, pending Φ.
+  std::vector<int> own, cnt, start, cursor;
+  std::vector<Mat6<T>> Omega, Phi;
+  std::vector<char> phi_identity;
+  // Per direction: sorted position → input index; F (row per direction), F·Ω, Fᵀ·S scratch.
+  std::vector<int> perm;
+  RowsX6 F, G, Tk;
+  MatX<T> tile;
+
+  ContactInertiaWorkspace(const Model& model, int max_columns)
+      : pre(model.nb()),
+        child_start(model.nb() + 1, 0),
+        own(model.nb()),
+        cnt(model.nb()),
+        start(model.nb()),
+        cursor(model.nb()),
+        Omega(model.nb()),
+        Phi(model.nb()),
+        phi_identity(model.nb()),
+        tile(kTile, kTile) {
+    const int nb = model.nb();
+    // Children lists, in increasing index.
+    for (int i = 0; i < nb; ++i)
+      if (model.parent(i) >= 0) ++child_start[model.parent(i) + 1];
+    for (int i = 0; i < nb; ++i) child_start[i + 1] += child_start[i];
+    children.resize(child_start[nb]);
+    std::vector<int> fill(child_start.begin(), child_start.end() - 1);
+    for (int i = 0; i < nb; ++i)
+      if (model.parent(i) >= 0) children[fill[model.parent(i)]++] = i;
+    // Preorder: roots in increasing index, children in increasing index.
+    std::vector<int> stack;
+    for (int r = nb - 1; r >= 0; --r)
+      if (model.parent(r) < 0) stack.push_back(r);
+    while (!stack.empty()) {
+      const int i = stack.back();
+      stack.pop_back();
+      pre[i] = static_cast<int>(order.size());
+      order.push_back(i);
+      for (int c = child_start[i + 1] - 1; c >= child_start[i]; --c) stack.push_back(children[c]);
+    }
+    reserve(max_columns);
+  }
+
+  // Capacity for m directions.
+  void reserve(int m) {
+    if (static_cast<int>(perm.size()) >= m) return;
+    perm.resize(m);
+    F.resize(m, 6);
+    G.resize(m, 6);
+    Tk.resize(m, 6);
+  }
+};
+
+namespace detail {
+
+template <int K>
+using MaxK = std::integral_constant<int, K == Eigen::Dynamic ? 6 : K>;
+template <class T, int K>
+using Mat6K = Eigen::Matrix<T, 6, K, 0, 6, MaxK<K>::value>;
+template <class T, int K>
+using MatKK = Eigen::Matrix<T, K, K, 0, MaxK<K>::value, MaxK<K>::value>;
+
+// Ω_i = Ω_λ(i) − S Eᵀ − E Sᵀ with W = Ω_λ(i) U D⁻¹, Q = (U D⁻¹)ᵀ W + D⁻¹, E = W − ½ S Q
+// (Ω_λ(i) = 0 at a root: Ω_i = S D⁻¹ Sᵀ); only one triangle is summed, then mirrored.
+template <class T, int K>
+void omegaStep(std::integral_constant<int, K>, const Kinematics<T>& kin, const Articulated<T>& art,
+               const Mat6<T>* Op, Mat6<T>& O, int i, int v, int k) {
+  const auto S = kin.S.template middleCols<K>(v, k);
+  const auto UD = art.UDinv.template middleCols<K>(v, k);
+  MatKK<T, K> Q = art.Dinv[i].template topLeftCorner<K, K>(k, k);
+  Mat6K<T, K> E(6, k);
+  if (Op) {
+    E.noalias() = Op->lazyProduct(UD);
+    Q.noalias() += UD.transpose().lazyProduct(E);
+  } else {
+    E.setZero();
+  }
+  // E = W − ½ S Q
+  const MatKK<T, K> halfQ = T(0.5) * Q;
+  E.noalias() -= S.lazyProduct(halfQ);
+  // Ω_i(r, c) = Ω_λ(i)(r, c) − (S Eᵀ)(r, c) − (S Eᵀ)(c, r)
+  const Mat6<T> SE = S.lazyProduct(E.transpose());
+  for (int c = 0; c < 6; ++c)
+    for (int r = c; r < 6; ++r) {
+      T x = -SE(r, c) - SE(c, r);
+      if (Op) x += (*Op)(r, c);
+      O(r, c) = x;
+      O(c, r) = x;
+    }
+}
+
+// f ← Pᵀ_c f = f − U D⁻¹ (Sᵀ f) for the rows [r0, r0 + L) of F (a row per direction).
+template <class T>
+void applyPropagator(const Kinematics<T>& kin, const Articulated<T>& art,
+                     ContactInertiaWorkspace<T>& ws, int v, int k, int r0, int L) {
+  auto Fr = ws.F.middleRows(r0, L);
+  auto t = ws.Tk.topLeftCorner(L, k);
+  t.noalias() = Fr * kin.S.middleCols(v, k);
+  Fr.noalias() -= t * art.UDinv.middleCols(v, k).transpose();
+}
+
+// f ← Φ f for the rows [r0, r0 + L) of F.
+template <class T>
+void applyComposite(ContactInertiaWorkspace<T>& ws, const Mat6<T>& Phi, int r0, int L) {
+  auto t = ws.Tk.topRows(L);
+  t.noalias() = ws.F.middleRows(r0, L) * Phi.transpose();
+  ws.F.middleRows(r0, L) = t;
+}
+
+// Φ ← Pᵀ_c Φ = Φ − U D⁻¹ (Sᵀ Φ), or Pᵀ_c itself for Φ = 1.
+template <class T>
+void composePropagator(const Kinematics<T>& kin, const Articulated<T>& art, int v, int k,
+                       bool identity, const Mat6<T>& Phi, Mat6<T>& out) {
+  const auto S = kin.S.middleCols(v, k);
+  const auto UD = art.UDinv.middleCols(v, k);
+  if (identity) {
+    out.setIdentity();
+    out.noalias() -= UD * S.transpose();
+    return;
+  }
+  const MatK<T> StPhi = S.transpose() * Phi;
+  out = Phi;
+  out.noalias() -= UD * StPhi;
+}
+
+// The pairs of position ranges X = [x0, x0 + nx) and Y = [y0, y0 + ny), disjoint or equal
+// (diag): A(P(X), P(Y)) = F_X Ω F_Yᵀ and its mirror, P the sorted position → input index.
+template <class T>
+void pairBlock(ContactInertiaWorkspace<T>& ws, const Mat6<T>& Om, int x0, int nx, int y0, int ny,
+               bool diag, bool identity, MatX<T>& A) {
+  if (nx == 0 || ny == 0) return;
+  // G = F_s Ω on the smaller side s; the block is F_big Gᵀ (big rows, small columns).
+  if (ny > nx) std::swap(x0, y0), std::swap(nx, ny);
+  auto G = ws.G.topRows(ny);
+  G.noalias() = ws.F.middleRows(y0, ny) * Om;
+  if (identity) {
+    auto B = A.block(x0, y0, nx, ny);
+    B.noalias() = ws.F.middleRows(x0, nx) * G.transpose();
+    if (!diag) {
+      A.block(y0, x0, ny, nx) = B.transpose();
+    } else {
+      for (int c = 1; c < nx; ++c)
+        for (int r = 0; r < c; ++r) B(r, c) = B(c, r);
+    }
+    return;
+  }
+  // Out of preorder: tiles of the block, scattered to the input order.
+  const int tl = ContactInertiaWorkspace<T>::kTile;
+  for (int j0 = 0; j0 < ny; j0 += tl)
+    for (int i0 = diag ? j0 : 0; i0 < nx; i0 += tl) {
+      const int ti = std::min(tl, nx - i0), tj = std::min(tl, ny - j0);
+      auto tile = ws.tile.topLeftCorner(ti, tj);
+      tile.noalias() = ws.F.middleRows(x0 + i0, ti) * G.middleRows(j0, tj).transpose();
+      for (int j = 0; j < tj; ++j)
+        for (int i = diag && i0 == j0 ? j : 0; i < ti; ++i) {
+          const int r = ws.perm[x0 + i0 + i], c = ws.perm[y0 + j0 + j];
+          A(r, c) = tile(i, j);
+          A(c, r) = tile(i, j);
+        }
+    }
+}
+
+}  // namespace detail
+
+// A = Jᵀ M⁻¹ J for the m unit wrenches `wrenches` on `bodies` (see the contract above).
+template <class T>
+void contactInertia(const Model& model, const Kinematics<T>& kin, const Articulated<T>& art,
+                    const std::vector<int>& bodies, const std::vector<Vec6<T>>& wrenches,
+                    ContactInertiaWorkspace<T>& ws, MatX<T>& A) {
+  const int nb = model.nb(), m = static_cast<int>(bodies.size());
+  if (static_cast<int>(wrenches.size()) != m || A.rows() != m || A.cols() != m)
+    throw std::invalid_argument("contactInertia: bodies, wrenches and A (m x m) disagree");
+  if (m == 0) return;
+  ws.reserve(m);
+  // Directions per body, each subtree's range in preorder, the sorted order (stable).
+  std::fill(ws.own.begin(), ws.own.end(), 0);
+  for (int r = 0; r < m; ++r) ++ws.own[bodies[r]];
+  for (int p = 0, run = 0; p < nb; ++p) {
+    const int i = ws.order[p];
+    ws.start[i] = ws.cursor[i] = run;
+    run += ws.own[i];
+  }
+  bool identity = true;
+  for (int r = 0; r < m; ++r) {
+    const int pos = ws.cursor[bodies[r]]++;
+    ws.perm[pos] = r;
+    identity &= pos == r;
+    ws.F.row(pos) = wrenches[r].transpose();
+  }
+  for (int i = 0; i < nb; ++i) ws.cnt[i] = ws.own[i];
+  for (int i = nb - 1; i >= 0; --i)
+    if (model.parent(i) >= 0) ws.cnt[model.parent(i)] += ws.cnt[i];
+
+  // (1) Ω top-down over the bodies with contacts below them.
+  for (int i = 0; i < nb; ++i) {
+    if (ws.cnt[i] == 0) continue;
+    const int p = model.parent(i), v = model.vIdx(i), k = model.nvOf(i);
+    const Mat6<T>* Op = p >= 0 ? &ws.Omega[p] : nullptr;
+    forJointSize(k, [&](auto K) { detail::omegaStep(K, kin, art, Op, ws.Omega[i], i, v, k); });
+  }
+
+  // (2) Bottom-up: bring the children's directions up, write the pairs that meet here.
+  for (int p = nb - 1; p >= 0; --p) {
+    const int a = ws.order[p];
+    if (ws.cnt[a] == 0) continue;
+    int kids = 0, only = -1;
+    for (int q = ws.child_start[a]; q < ws.child_start[a + 1]; ++q)
+      if (ws.cnt[ws.children[q]] > 0) ++kids, only = ws.children[q];
+    // Pass-through: one child's directions, none of its own; compose or apply Pᵀ_c.
+    if (ws.own[a] == 0 && kids == 1) {
+      const int c = only, v = model.vIdx(c), k = model.nvOf(c);
+      if (ws.phi_identity[c] && ws.cnt[c] <= ContactInertiaWorkspace<T>::kDirectMax) {
+        detail::applyPropagator(kin, art, ws, v, k, ws.start[c], ws.cnt[c]);
+        ws.phi_identity[a] = 1;
+      } else {
+        detail::composePropagator(kin, art, v, k, ws.phi_identity[c], ws.Phi[c], ws.Phi[a]);
+        ws.phi_identity[a] = 0;
+      }
+      continue;
+    }
+    // Branch node: every child's range propagated to a.
+    for (int q = ws.child_start[a]; q < ws.child_start[a + 1]; ++q) {
+      const int c = ws.children[q];
+      if (ws.cnt[c] == 0) continue;
+      const int v = model.vIdx(c), k = model.nvOf(c);
+      if (ws.phi_identity[c]) {
+        detail::applyPropagator(kin, art, ws, v, k, ws.start[c], ws.cnt[c]);
+      } else {
+        Mat6<T> Phi;
+        detail::composePropagator(kin, art, v, k, false, ws.Phi[c], Phi);
+        detail::applyComposite(ws, Phi, ws.start[c], ws.cnt[c]);
+      }
+    }
+    ws.phi_identity[a] = 1;
+    // Pairs meeting at a: own × own, own × children, each child × the later children.
+    const int s = ws.start[a], e = s + ws.cnt[a], o = ws.own[a];
+    const Mat6<T>& Om = ws.Omega[a];
+    detail::pairBlock(ws, Om, s, o, s, o, true, identity, A);
+    detail::pairBlock(ws, Om, s + o, e - s - o, s, o, false, identity, A);
+    for (int q = ws.child_start[a]; q < ws.child_start[a + 1]; ++q) {
+      const int c = ws.children[q];
+      if (ws.cnt[c] == 0) continue;
+      const int end = ws.start[c] + ws.cnt[c];
+      detail::pairBlock(ws, Om, ws.start[c], ws.cnt[c], end, e - end, false, identity, A);
+    }
+  }
+
+  // Directions in different trees of a forest do not couple.
+  for (int p = 0; p < nb; ++p) {
+    const int r = ws.order[p];
+    if (model.parent(r) >= 0 || ws.cnt[r] == 0) continue;
+    const int s = ws.start[r], e = s + ws.cnt[r];
+    for (int x = s; x < e; ++x)
+      for (int y = e; y < m; ++y) A(ws.perm[x], ws.perm[y]) = A(ws.perm[y], ws.perm[x]) = T(0);
+  }
+}
+
+}  // namespace minv::sim
