@@ -70,6 +70,7 @@ def main():
             vals = np.array([next(r[comp] for r in data[p] if r["legs"] == legs) for p in names]) * 1e3
             bx.bar(names, vals, bottom=bottom, color=col, label=comp)
             bottom += vals
+        bx.tick_params(axis="x", labelrotation=20)
         bx.set_ylabel("ms per step")
         bx.set_title(f"per-step components, {legs} legs ({legs // 2} segments)")
         bx.legend(fontsize=8)
