@@ -85,6 +85,7 @@ void writeBodyContent(const Model& model, int i, std::string& out) {
 struct MjcfWriter {
   const Model& model;
   int nest_per_file;
+  const MjcfExtras* extras;
   std::vector<std::vector<int>> children;
   std::vector<MjcfFile> files;
 
@@ -101,6 +102,7 @@ struct MjcfWriter {
     }
     s += ">";
     writeBodyContent(model, i, s);
+    if (extras && i < static_cast<int>(extras->body.size())) s += extras->body[i];
     files[f].text += s;
     if (!children[i].empty()) {
       if (nest >= nest_per_file) {
@@ -120,19 +122,20 @@ struct MjcfWriter {
 
 }  // namespace
 
-std::vector<MjcfFile> toMjcf(const Model& model, int nest_per_file) {
+std::vector<MjcfFile> toMjcf(const Model& model, int nest_per_file, const MjcfExtras* extras) {
   if (nest_per_file < 1 || nest_per_file > 90)
     throw std::invalid_argument("toMjcf: nest_per_file must be in [1, 90]");
-  MjcfWriter w{model, nest_per_file, std::vector<std::vector<int>>(model.nb()), {}};
+  MjcfWriter w{model, nest_per_file, extras, std::vector<std::vector<int>>(model.nb()), {}};
   for (int i = 0; i < model.nb(); ++i)
     if (model.parent(i) >= 0) w.children[model.parent(i)].push_back(i);
+  const bool head = extras && !extras->head.empty();
   w.files.push_back({"minv.xml",
                      "<mujoco model=\"minv\">\n"
                      "<compiler angle=\"radian\" inertiafromgeom=\"false\" boundmass=\"0\" "
                      "boundinertia=\"0\" balanceinertia=\"false\" settotalmass=\"-1\" "
-                     "fusestatic=\"false\"/>\n"
-                     "<option gravity=\"0 0 0\"/>\n"
-                     "<worldbody>"});
+                     "fusestatic=\"false\"/>\n" +
+                         (head ? extras->head : std::string("<option gravity=\"0 0 0\"/>\n")) +
+                         "<worldbody>" + (extras ? extras->world : std::string())});
   for (int i = 0; i < model.nb(); ++i)
     if (model.parent(i) < 0) w.writeBody(i, 0, 1);
   w.files[0].text += "</worldbody>\n</mujoco>\n";

@@ -73,8 +73,18 @@ struct MjcfFile {
   std::string text;
 };
 
+// What a caller adds to the exported tree (for MuJoCo's own stepping, sim/mujoco_step.hpp):
+// `head` replaces the default <option gravity="0 0 0"/> (options, <size>, …), `world` goes into
+// <worldbody> before the bodies (a ground plane), body[i] into body i after its inertial
+// (geoms); an empty string adds nothing.
+struct MjcfExtras {
+  std::string head, world;
+  std::vector<std::string> body;
+};
+
 // Our tree as MJCF (see the top of this file). Body i is "b<i>", its joint "j<i>".
-std::vector<MjcfFile> toMjcf(const Model& model, int nest_per_file = kMjcfNestPerFile);
+std::vector<MjcfFile> toMjcf(const Model& model, int nest_per_file = kMjcfNestPerFile,
+                             const MjcfExtras* extras = nullptr);
 
 // An MJCF file read through MuJoCo's parser (see the top of this file). Without MuJoCo this
 // throws ModelError saying so.

@@ -1,10 +1,12 @@
 """Figure 4: simulated time cost of the walking centipede vs number of legs, for the
 contact-space paths abi (Θ(nm) impulse sweeps), lapack and ltdl (factor M once per step, then
 back-substitute), test-impulse (spatial test impulses, no generalized product) and
-contact-inertia (the Θ(n + m²) contact-space inertia recursion), each split by component.
-Reads results/centipede.h5 (`minv simulate sweep`); the paper's y axis is the total time of
-its 1000-step run, so per-step means are scaled to 1000 steps (points whose run had fewer
-steps are extrapolated that way and drawn hollow)."""
+contact-inertia (the Θ(n + m²) contact-space inertia recursion), each split by component, and,
+when the file has it, mujoco-step (MuJoCo's own mj_step on the same centipede: one undivided
+total, drawn as one bar). Reads results/centipede.h5 (`minv simulate sweep`); the paper's y
+axis is the total time of its 1000-step run, so per-step means are scaled to 1000 steps (points
+whose run had fewer steps are extrapolated that way and drawn hollow). Skipped points
+(status "skipped") are left out."""
 import h5py
 import matplotlib.pyplot as plt
 import numpy as np
@@ -12,8 +14,11 @@ import numpy as np
 from common import provenance_line, result_path, save
 
 PATHS = [("abi", "tab:red", "-."), ("lapack", "tab:blue", "-"), ("ltdl", "tab:green", "--"),
-         ("test-impulse", "black", ":"), ("contact-inertia", "tab:purple", "-x")]
+         ("test-impulse", "black", ":"), ("contact-inertia", "tab:purple", "-x"),
+         ("mujoco-step", "tab:brown", "-s")]
 COMPONENTS = ["dynamics", "collision", "matrices", "solve", "update"]
+# The part of a step's total no component holds: MuJoCo's whole mj_step.
+UNDIVIDED = "mj_step (MuJoCo, undivided)"
 
 
 def load():
@@ -28,9 +33,13 @@ def load():
                     continue
                 g = f[sname][path]
                 a = g.attrs
+                status = a.get("status", "ok")
+                if (status.decode() if isinstance(status, bytes) else status) != "ok":
+                    continue
                 steps = int(a["steps"])
                 row = {c: float(a[f"time_{c}"]) / steps for c in COMPONENTS}
                 row["total"] = float(a["time_total"]) / steps
+                row[UNDIVIDED] = max(0.0, row["total"] - sum(row[c] for c in COMPONENTS))
                 row["legs"] = int(a["legs"])
                 row["nv"] = int(a["nv"])
                 row["steps"] = steps
@@ -66,8 +75,11 @@ def main():
         legs = max(common)
         names = [p for p, _, _ in PATHS if p in data]
         bottom = np.zeros(len(names))
-        for comp, col in zip(COMPONENTS, ["tab:gray", "tab:olive", "tab:purple", "tab:orange", "tab:cyan"]):
+        colors = ["tab:gray", "tab:olive", "tab:purple", "tab:orange", "tab:cyan", "tab:brown"]
+        for comp, col in zip(COMPONENTS + [UNDIVIDED], colors):
             vals = np.array([next(r[comp] for r in data[p] if r["legs"] == legs) for p in names]) * 1e3
+            if comp == UNDIVIDED and not vals.any():
+                continue
             bx.bar(names, vals, bottom=bottom, color=col, label=comp)
             bottom += vals
         bx.tick_params(axis="x", labelrotation=20)

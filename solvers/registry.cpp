@@ -101,7 +101,7 @@ std::string solverNameProblem(const std::string& name) {
              "'; use letters, digits, '_' and '-'";
   if (!std::isalnum(static_cast<unsigned char>(name[0])))
     return "solver name '" + name + "' must start with a letter or a digit";
-  if (name == "all" || name == "test-impulse" || name == "contact-inertia")
+  if (name == "all" || name == "test-impulse" || name == "contact-inertia" || name == "mujoco-step")
     return "solver name '" + name + "' is reserved by the minv command";
   return {};
 }

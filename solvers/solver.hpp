@@ -91,8 +91,8 @@ void registerSolver(SolverEntry entry);
 bool unregisterSolver(const std::string& name);
 
 // A solver name is 1 to 32 characters from [A-Za-z0-9_-], starting with a letter or digit, and
-// is none of "all", "test-impulse" and "contact-inertia" (words of the `minv` command). Returns
-// the reason it is not valid, or an empty string.
+// is none of "all", "test-impulse", "contact-inertia" and "mujoco-step" (words of the `minv`
+// command). Returns the reason it is not valid, or an empty string.
 std::string solverNameProblem(const std::string& name);
 
 }  // namespace minv

@@ -39,6 +39,7 @@ TEST(Registry, NamesAreValidated) {
   EXPECT_NE(solverNameProblem("all"), "");
   EXPECT_NE(solverNameProblem("test-impulse"), "");
   EXPECT_NE(solverNameProblem("contact-inertia"), "");
+  EXPECT_NE(solverNameProblem("mujoco-step"), "");
   EXPECT_NE(thrown([] { registerSolver(entryNamed("bad name")); }).find("character ' '"),
             std::string::npos);
 }

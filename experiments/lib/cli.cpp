@@ -8,11 +8,12 @@
 //              [--rhs M] [--rhs-seed S] --out FILE.h5
 //   minv generate --topology centipede --segments S [--segment-joint yaw|spherical] --out FILE
 //   minv simulate centipede [--segments S] [--steps K] [--dt H]
-//                           [--solver NAME|test-impulse|contact-inertia]
+//                           [--solver NAME|test-impulse|contact-inertia|mujoco-step]
 //                 [--frames F] [--segment-joint yaw|spherical] [--out FILE.h5]   (sim/)
 //   minv simulate sweep [--segments 5,10,20,40]
 //                       [--solvers abi,lapack,ltdl,test-impulse,contact-inertia]
-//                 [--steps K] [--dt H] --out FILE.h5   (Figure 4; appended to and resumed)
+//                 [--steps K] [--dt H] --out FILE.h5   (Figure 4; appended to and resumed;
+//                 mujoco-step is a path too, not among the defaults)
 //   minv solvers
 //   minv check [--solver NAME|all] [--max-n N]   (solvers/conformance.hpp; exit 1 if a check
 //              fails)
@@ -391,14 +392,15 @@ int runSimulate(SimulateOptions o) {
   const sim::CentipedeRunResult r = sim::runCentipede(o.run, std::cout, h5.get(), "/");
   std::printf(
       "times (s): dynamics %.3f  collision %.3f  contact matrices %.3f  contact solve "
-      "%.3f  update %.3f  total %.3f\n",
+      "%.3f  update %.3f  total %.3f%s\n",
       r.times.dynamics, r.times.collision, r.times.matrices, r.times.solve, r.times.update,
-      r.times.total());
-  std::printf(
-      "contact residuals (max): penetration %.2e m/s  cone %.2e  complementarity %.2e  "
-      "kkt %.2e; pgs iterations max %d, unconverged steps %d\n",
-      r.max_penetration, r.max_cone, r.max_complementarity, r.max_kkt, r.max_pgs_iterations,
-      r.unconverged_steps);
+      r.time_total, r.engine == "mujoco" ? " (MuJoCo's mj_step, undivided)" : "");
+  if (r.engine != "mujoco")
+    std::printf(
+        "contact residuals (max): penetration %.2e m/s  cone %.2e  complementarity %.2e  "
+        "kkt %.2e; pgs iterations max %d, unconverged steps %d\n",
+        r.max_penetration, r.max_cone, r.max_complementarity, r.max_kkt, r.max_pgs_iterations,
+        r.unconverged_steps);
   std::printf(
       "net displacement: head dx=%+.4f m dy=%+.4f m; centre of mass dx=%+.4f m dy=%+.4f m\n",
       r.head_dx, r.head_dy, r.com_dx, r.com_dy);
@@ -613,7 +615,8 @@ int runCli(int argc, char** argv, const std::string& program) {
   scen->add_option("--steps", sm.run.steps, "Time steps")->capture_default_str();
   scen->add_option("--dt", sm.run.dt, "Step size (s)")->capture_default_str();
   scen->add_option("--solver", sm.run.solver,
-                   "Contact-space path: a solver name, test-impulse or contact-inertia")
+                   "Contact-space path: a solver name, test-impulse or contact-inertia; or "
+                   "mujoco-step (MuJoCo's own mj_step)")
       ->capture_default_str();
   scen->add_option("--segment-joint", sm.run.segment_joint, "yaw | spherical")
       ->capture_default_str();
@@ -623,7 +626,10 @@ int runCli(int argc, char** argv, const std::string& program) {
   ssw->add_option("--segments", sm.sweep.segments, "Segment counts")
       ->delimiter(',')
       ->capture_default_str();
-  ssw->add_option("--solvers", sm.sweep.solvers, "Paths")->delimiter(',')->capture_default_str();
+  ssw->add_option("--solvers", sm.sweep.solvers,
+                  "Paths: solver names, test-impulse, contact-inertia, mujoco-step")
+      ->delimiter(',')
+      ->capture_default_str();
   ssw->add_option("--steps", sm.sweep.steps, "Time steps per run")->capture_default_str();
   ssw->add_option("--dt", sm.sweep.dt, "Step size (s)")->capture_default_str();
   ssw->add_option("--out", sm.sweep.out, "Output HDF5 file (appended to and resumed)")->required();
