@@ -116,11 +116,9 @@ ContactSolution solveMaxDissipation(const ContactProblem& p, const Eigen::Vector
   const bool warm = s.beta.any();
   if (warm) u.noalias() += p.A * s.lambda;
   // The scale of the relative test: ‖g0‖∞, g0 = Wᵀ(v0 + [b; 0; 0]).
-  double g0max = 0;
   Eigen::VectorXd g(m);
   for (int c = 0; c < nc; ++c) generatorVelocities(W, p.v0, p.b, c, k, g.data() + k * c);
-  g0max = g.cwiseAbs().maxCoeff();
-  const double tol = o.tolerance * std::max(g0max, o.floor);
+  const double tol = o.tolerance * std::max(g.cwiseAbs().maxCoeff(), o.floor);
   auto kkt = [&] {
     double e = 0;
     for (int c = 0; c < nc; ++c) generatorVelocities(W, u, p.b, c, k, g.data() + k * c);
@@ -188,9 +186,8 @@ ContactSolution solveMaxDissipation(const ContactProblem& p, const Eigen::Vector
 
 ContactSolution solveMaxDissipationReference(const ContactProblem& p, const Eigen::VectorXd& beta,
                                              const ContactSolverOptions& o) {
+  checkProblem(p);
   const int nc = static_cast<int>(p.b.size()), k = p.k;
-  if (p.A.rows() != 3 * nc || p.A.cols() != 3 * nc || p.v0.size() != 3 * nc)
-    throw std::invalid_argument("contact problem: A must be 3nc x 3nc and v0 3nc");
   const Eigen::MatrixXd W = coneGenerators(p.mu, k);
   // G = WᵀAW blockwise, g0 = Wᵀ(v0 + [b; 0; 0]).
   Eigen::MatrixXd AW(3 * nc, k * nc), G(k * nc, k * nc);

@@ -91,15 +91,18 @@ MujocoCentipede::MujocoCentipede(const Centipede& c, const MujocoStepOptions& o)
   tau_mj_ = Eigen::VectorXd::Zero(model.nv());
 }
 
+// Body i's number of position coordinates (7 free, 4 ball, 1 hinge or slide), from the q layout.
+static int nqOf(const Model& model, int i) {
+  return (i + 1 < model.nb() ? model.qIdx(i + 1) : model.nq()) - model.qIdx(i);
+}
+
 void MujocoCentipede::setState(const Eigen::VectorXd& q, const Eigen::VectorXd& v) {
   const Model& model = c_.model;
   model.checkConfiguration(q);
   if (v.size() != model.nv()) throw std::invalid_argument("velocity has the wrong size");
   // Coordinates: the same numbers per joint (MuJoCo's free qpos is position, then w x y z).
   for (int i = 0; i < model.nb(); ++i) {
-    const int nq = model.joint(i).type == JointType::Floating    ? 7
-                   : model.joint(i).type == JointType::Spherical ? 4
-                                                                 : 1;
+    const int nq = nqOf(model, i);
     for (int k = 0; k < nq; ++k) d_->qpos[qpos_[i] + k] = q(model.qIdx(i) + k);
   }
   // Velocities: permuted, the base's linear velocity turned into the world frame.
@@ -128,9 +131,7 @@ void MujocoCentipede::state(Eigen::VectorXd& q, Eigen::VectorXd& v) const {
   q.resize(model.nq());
   v.resize(model.nv());
   for (int i = 0; i < model.nb(); ++i) {
-    const int nq = model.joint(i).type == JointType::Floating    ? 7
-                   : model.joint(i).type == JointType::Spherical ? 4
-                                                                 : 1;
+    const int nq = nqOf(model, i);
     for (int k = 0; k < nq; ++k) q(model.qIdx(i) + k) = d_->qpos[qpos_[i] + k];
   }
   for (int k = 0; k < model.nv(); ++k) v(k) = d_->qvel[dof_[k]];
