@@ -26,6 +26,7 @@
 
 #include "bindings.hpp"
 #include "experiments/lib/gbench.hpp"
+#include "experiments/lib/h5reader.hpp"
 #include "experiments/lib/h5writer.hpp"
 #include "experiments/lib/timing.hpp"
 #include "generators/random_tree.hpp"

@@ -52,4 +52,18 @@ void CentipedeGait::operator()(double t, const Eigen::VectorXd& q, const Eigen::
   }
 }
 
+std::vector<ContactPoint> legTips(const Centipede& c) {
+  std::vector<ContactPoint> tips;
+  for (int l = 0; l < c.legs(); ++l) tips.push_back({c.lower_body[l], c.tip});
+  return tips;
+}
+
+WalkingCentipede::WalkingCentipede(const Centipede& c, const SimOptions& so, GaitOptions g)
+    : gait_(c, g), sim_(c.model, legTips(c), so) {
+  // The controller and the standing start.
+  sim_.setController([this](double t, const Eigen::VectorXd& q, const Eigen::VectorXd& v,
+                            Eigen::VectorXd& tau) { gait_(t, q, v, tau); });
+  sim_.setState(centipedeStanding(c), Eigen::VectorXd::Zero(c.model.nv()));
+}
+
 }  // namespace minv::sim

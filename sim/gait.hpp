@@ -11,8 +11,10 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <vector>
 
 #include "generators/centipede.hpp"
+#include "sim/simulator.hpp"
 
 namespace minv::sim {
 
@@ -36,6 +38,21 @@ class CentipedeGait {
  private:
   const Centipede& c_;
   GaitOptions o_;
+};
+
+// One contact point at every leg tip of the centipede, in leg order.
+std::vector<ContactPoint> legTips(const Centipede& c);
+
+// The centipede standing at rest, a contact point at every leg tip, driven by the gait.
+class WalkingCentipede {
+ public:
+  WalkingCentipede(const Centipede& c, const SimOptions& so, GaitOptions g = {});
+  Simulator& sim() { return sim_; }
+  const Simulator& sim() const { return sim_; }
+
+ private:
+  CentipedeGait gait_;  // before sim_: the controller refers to it
+  Simulator sim_;
 };
 
 }  // namespace minv::sim

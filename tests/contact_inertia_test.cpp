@@ -49,6 +49,23 @@ Eigen::Vector3d nearBody(const Kinematics<double>& kin, int b, Rng& rng) {
   return kin.X[b].p + 0.2 * rng.unitVector();
 }
 
+// A branched tree of mixed joints on a floating base.
+Model floatingMixed(int n, std::uint64_t seed) {
+  return randomTree({.topology = Topology::Branched,
+                     .n = n,
+                     .seed = seed,
+                     .floating_base = true,
+                     .joints = JointSet::Mixed});
+}
+
+// `count` point contacts, each on a random body near its origin.
+void randomPoints(Contacts& c, const Kinematics<double>& kin, int count, Rng& rng) {
+  for (int e = 0; e < count; ++e) {
+    const int b = rng.below(static_cast<int>(kin.X.size()));
+    c.point(b, nearBody(kin, b, rng));
+  }
+}
+
 // Jᵀ M⁻¹ J with X = M⁻¹J from the lapack solver.
 Eigen::MatrixXd denseReference(const Model& model, const Eigen::VectorXd& q,
                                const Kinematics<double>& kin, const Contacts& c) {
@@ -104,10 +121,7 @@ void centipedeCase(SegmentJoint joint, int segments, std::uint64_t seed) {
     c.point(cp.lower_body[l], X.p + X.R * cp.tip);
   }
   Rng rng(seed);
-  for (int e = 0; e < 4; ++e) {
-    const int b = rng.below(m.nb());
-    c.point(b, nearBody(kin, b, rng));
-  }
+  randomPoints(c, kin, 4, rng);
   check(m, q, c,
         std::string("centipede ") + segmentJointName(joint) + " S=" + std::to_string(segments));
 }
@@ -195,11 +209,7 @@ TEST(ContactInertia, SerialChainsCompositePropagators) {
 
 // A forest: two trees side by side (no common ancestor, so their directions do not couple).
 TEST(ContactInertia, Forest) {
-  const Model a = randomTree({.topology = Topology::Branched,
-                              .n = 8,
-                              .seed = 11,
-                              .floating_base = true,
-                              .joints = JointSet::Mixed});
+  const Model a = floatingMixed(8, 11);
   const Model b = randomTree({.topology = Topology::Branched, .n = 6, .seed = 12});
   std::vector<int> parent;
   std::vector<Joint> joints;
@@ -222,10 +232,7 @@ TEST(ContactInertia, Forest) {
   computeKinematics<double>(m, q, kin);
   Rng rng(14);
   Contacts c;
-  for (int e = 0; e < 6; ++e) {
-    const int body = rng.below(m.nb());
-    c.point(body, nearBody(kin, body, rng));
-  }
+  randomPoints(c, kin, 6, rng);
   c.point(a.nb(), nearBody(kin, a.nb(), rng));  // the second tree's root
   check(m, q, c, "forest");
 }
@@ -255,20 +262,13 @@ TEST(ContactInertia, WorkspaceReuse) {
 
 // The Counted instantiation computes the same A (it is the same code).
 TEST(ContactInertia, CountedGivesTheSameNumbers) {
-  const Model m = randomTree({.topology = Topology::Branched,
-                              .n = 20,
-                              .seed = 31,
-                              .floating_base = true,
-                              .joints = JointSet::Mixed});
+  const Model m = floatingMixed(20, 31);
   const Eigen::VectorXd q = randomConfiguration(m, 32);
   Kinematics<double> kin(m);
   computeKinematics<double>(m, q, kin);
   Rng rng(33);
   Contacts c;
-  for (int e = 0; e < 8; ++e) {
-    const int body = rng.below(m.nb());
-    c.point(body, nearBody(kin, body, rng));
-  }
+  randomPoints(c, kin, 8, rng);
   const Eigen::MatrixXd A = recursion(m, kin, c);
   Kinematics<Counted> kc(m);
   computeKinematics<Counted>(m, q.cast<Counted>(), kc);

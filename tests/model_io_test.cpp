@@ -16,6 +16,7 @@
 
 #include "core/crba.hpp"
 #include "generators/random_tree.hpp"
+#include "tests/model_error.hpp"
 
 namespace minv {
 namespace {
@@ -95,23 +96,6 @@ struct TempDir {
     return p.string();
   }
 };
-
-// The message of the ModelError that f throws ("" if none).
-template <class F>
-std::string errorOf(F f) {
-  try {
-    f();
-  } catch (const ModelError& e) {
-    return e.what();
-  }
-  return "";
-}
-
-#define EXPECT_ERROR(expr, text)                                                  \
-  do {                                                                            \
-    const std::string msg_ = errorOf([&] { (void)(expr); });                      \
-    EXPECT_NE(msg_.find(text), std::string::npos) << "message: '" << msg_ << "'"; \
-  } while (0)
 
 // Random revolute trees in every layout the round trips cover.
 std::vector<Model> sampleModels(JointSet joints) {
@@ -363,7 +347,7 @@ json validDoc() {
 }
 
 std::string readError(const json& doc) {
-  return errorOf([&] { fromJson(doc.dump()); });
+  return test::errorOf([&] { fromJson(doc.dump()); });
 }
 
 // Reading validDoc() changed by f fails with a message containing text.

@@ -250,16 +250,11 @@ TEST(SimContactSolver, OneInnerPassIsTheReferenceIteration) {
 TEST(SimContactSolver, BlockSolveMatchesReferenceOnRecordedCentipedeProblems) {
   for (SegmentJoint joint : {SegmentJoint::Yaw, SegmentJoint::Spherical}) {
     const Centipede c = makeCentipede({.segments = 8, .segment_joint = joint});
-    CentipedeGait gait(c);
     SimOptions so;
     so.dt = 1e-3;
     so.path = kContactInertiaPath;
-    std::vector<ContactPoint> tips;
-    for (int l = 0; l < c.legs(); ++l) tips.push_back({c.lower_body[l], c.tip});
-    Simulator sim(c.model, tips, so);
-    sim.setController([&](double t, const Eigen::VectorXd& q, const Eigen::VectorXd& v,
-                          Eigen::VectorXd& tau) { gait(t, q, v, tau); });
-    sim.setState(centipedeStanding(c), Eigen::VectorXd::Zero(c.model.nv()));
+    WalkingCentipede walk(c, so);
+    Simulator& sim = walk.sim();
     int recorded = 0;
     for (int step = 1; step <= 60; ++step) {
       sim.step();

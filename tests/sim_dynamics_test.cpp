@@ -244,7 +244,6 @@ TEST(SimContact, BlockOnInclineSticksBelowFrictionAngleAndSlidesAbove) {
 // a walking centipede within 1e-8 (PGS run to 1e-13).
 TEST(SimPaths, EveryPathGivesTheSameTrajectory) {
   const Centipede c = makeCentipede({.segments = 4});
-  CentipedeGait gait(c);
   Eigen::VectorXd ref;
   for (const std::string& path : simulationPaths()) {
     SimOptions o;
@@ -252,12 +251,8 @@ TEST(SimPaths, EveryPathGivesTheSameTrajectory) {
     o.path = path;
     o.contact.tolerance = 1e-13;
     o.contact.max_iterations = 20000;
-    std::vector<ContactPoint> tips;
-    for (int l = 0; l < c.legs(); ++l) tips.push_back({c.lower_body[l], c.tip});
-    Simulator sim(c.model, tips, o);
-    sim.setController([&](double t, const Eigen::VectorXd& q, const Eigen::VectorXd& v,
-                          Eigen::VectorXd& tau) { gait(t, q, v, tau); });
-    sim.setState(centipedeStanding(c), Eigen::VectorXd::Zero(c.model.nv()));
+    WalkingCentipede walk(c, o);
+    Simulator& sim = walk.sim();
     for (int s = 0; s < 200; ++s) sim.step();
     if (ref.size() == 0) {
       ref = sim.q();

@@ -18,6 +18,7 @@
 #include <sstream>
 #include <string>
 
+#include "experiments/lib/h5reader.hpp"
 #include "experiments/lib/timing.hpp"
 #include "tests/test_util.hpp"
 

@@ -18,6 +18,7 @@
 #include <string>
 #include <thread>
 
+#include "experiments/lib/h5reader.hpp"
 #include "solvers/solver.hpp"
 #include "tests/test_util.hpp"
 

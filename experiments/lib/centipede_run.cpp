@@ -36,12 +36,7 @@ class Walker {
 
 class OurWalker final : public Walker {
  public:
-  OurWalker(const Centipede& c, const std::vector<ContactPoint>& tips, const SimOptions& so)
-      : sim_(c.model, tips, so), gait_(c) {
-    sim_.setController([this](double t, const Eigen::VectorXd& q, const Eigen::VectorXd& v,
-                              Eigen::VectorXd& tau) { gait_(t, q, v, tau); });
-    sim_.setState(centipedeStanding(c), Eigen::VectorXd::Zero(c.model.nv()));
-  }
+  OurWalker(const Centipede& c, const SimOptions& so) : walk_(c, so), sim_(walk_.sim()) {}
   void step() override { sim_.step(); }
   const Eigen::VectorXd& q() const override { return sim_.q(); }
   const Eigen::VectorXd& v() const override { return sim_.v(); }
@@ -55,8 +50,8 @@ class OurWalker final : public Walker {
   }
 
  private:
-  Simulator sim_;
-  CentipedeGait gait_;
+  WalkingCentipede walk_;
+  Simulator& sim_;
 };
 
 #ifdef MINV_HAVE_MUJOCO
@@ -133,15 +128,13 @@ CentipedeRunResult runCentipede(const CentipedeRunOptions& o, std::ostream& log,
   co.segment_joint = segmentJointFromName(o.segment_joint);
   const Centipede c = makeCentipede(co);
   const Model& m = c.model;
-  std::vector<ContactPoint> tips;
-  for (int l = 0; l < c.legs(); ++l) tips.push_back({c.lower_body[l], c.tip});
   SimOptions so;
   so.dt = o.dt;
   so.mu = o.mu;
   so.friction_dirs = o.friction_dirs;
   so.path = o.solver;
   std::unique_ptr<Walker> sim;
-  if (!mujoco) sim = std::make_unique<OurWalker>(c, tips, so);
+  if (!mujoco) sim = std::make_unique<OurWalker>(c, so);
 #ifdef MINV_HAVE_MUJOCO
   if (mujoco) {
     MujocoStepOptions mo;

@@ -74,6 +74,7 @@
 #include "experiments/lib/centipede_run.hpp"
 #include "experiments/lib/flops.hpp"
 #include "experiments/lib/gbench.hpp"
+#include "experiments/lib/h5reader.hpp"
 #include "experiments/lib/h5writer.hpp"
 #include "experiments/lib/provenance.hpp"
 #include "experiments/lib/timing.hpp"

@@ -1,0 +1,286 @@
+// Reading result files back and merging shards: the plain HDF5 C API for reading, H5Writer
+// for writing (so one writer makes every file).
+#include "experiments/lib/h5reader.hpp"
+
+#include <hdf5.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <set>
+#include <stdexcept>
+
+#include "experiments/lib/h5writer.hpp"
+
+namespace minv {
+
+namespace {
+
+struct Hid {
+  hid_t id;
+  herr_t (*close)(hid_t);
+  Hid(hid_t i, herr_t (*c)(hid_t)) : id(i), close(c) {}
+  ~Hid() {
+    if (id >= 0) close(id);
+  }
+  operator hid_t() const { return id; }
+};
+
+[[noreturn]] void readFail(const std::string& what, const std::string& file) {
+  throw std::runtime_error("cannot " + what + " in " + file);
+}
+
+// An HDF5 iteration callback that collects the names it is shown.
+template <class Info>
+herr_t collectName(hid_t, const char* name, const Info*, void* names) {
+  static_cast<std::vector<std::string>*>(names)->push_back(name);
+  return 0;
+}
+
+std::vector<std::string> childNames(hid_t group) {
+  std::vector<std::string> names;
+  H5Literate(group, H5_INDEX_NAME, H5_ITER_INC, nullptr, collectName<H5L_info_t>, &names);
+  return names;
+}
+
+std::vector<std::string> attributeNames(hid_t obj) {
+  std::vector<std::string> names;
+  H5Aiterate2(obj, H5_INDEX_NAME, H5_ITER_INC, nullptr, collectName<H5A_info_t>, &names);
+  return names;
+}
+
+// A scalar attribute's value: double, int64, uint64 or string.
+struct AttrValue {
+  enum Kind { Double, Int, UInt, String } kind = String;
+  double d = 0;
+  std::int64_t i = 0;
+  std::uint64_t u = 0;
+  std::string s;
+  std::string text() const {
+    switch (kind) {
+      case Double: {
+        char buf[40];
+        std::snprintf(buf, sizeof buf, "%.17g", d);
+        return buf;
+      }
+      case Int:
+        return std::to_string(i);
+      case UInt:
+        return std::to_string(u);
+      default:
+        return s;
+    }
+  }
+};
+
+AttrValue readAttribute(hid_t obj, const std::string& name, const std::string& file) {
+  Hid a(H5Aopen(obj, name.c_str(), H5P_DEFAULT), H5Aclose);
+  if (a < 0) readFail("open attribute " + name, file);
+  Hid type(H5Aget_type(a), H5Tclose);
+  AttrValue v;
+  switch (H5Tget_class(type)) {
+    case H5T_FLOAT:
+      v.kind = AttrValue::Double;
+      if (H5Aread(a, H5T_NATIVE_DOUBLE, &v.d) < 0) readFail("read attribute " + name, file);
+      break;
+    case H5T_INTEGER:
+      if (H5Tget_sign(type) == H5T_SGN_NONE && H5Tget_size(type) == 8) {
+        v.kind = AttrValue::UInt;
+        if (H5Aread(a, H5T_NATIVE_UINT64, &v.u) < 0) readFail("read attribute " + name, file);
+      } else {
+        v.kind = AttrValue::Int;
+        if (H5Aread(a, H5T_NATIVE_INT64, &v.i) < 0) readFail("read attribute " + name, file);
+      }
+      break;
+    case H5T_STRING: {
+      v.kind = AttrValue::String;
+      if (H5Tis_variable_str(type) > 0) {
+        Hid mem(H5Tcopy(H5T_C_S1), H5Tclose);
+        H5Tset_size(mem, H5T_VARIABLE);
+        H5Tset_cset(mem, H5Tget_cset(type));
+        char* str = nullptr;
+        if (H5Aread(a, mem, &str) < 0) readFail("read attribute " + name, file);
+        v.s = str ? str : "";
+        H5free_memory(str);
+      } else {
+        std::string buf(H5Tget_size(type), '\0');
+        if (H5Aread(a, type, buf.data()) < 0) readFail("read attribute " + name, file);
+        v.s = buf.c_str();
+      }
+      break;
+    }
+    default:
+      readFail("read attribute " + name + " (unsupported type)", file);
+  }
+  return v;
+}
+
+void writeAttribute(H5Writer& h5, const std::string& obj, const std::string& name,
+                    const AttrValue& v) {
+  switch (v.kind) {
+    case AttrValue::Double:
+      h5.setAttribute(obj, name, v.d);
+      break;
+    case AttrValue::Int:
+      h5.setAttribute(obj, name, v.i);
+      break;
+    case AttrValue::UInt:
+      h5.setAttribute(obj, name, v.u);
+      break;
+    default:
+      h5.setAttribute(obj, name, v.s);
+  }
+}
+
+std::vector<hsize_t> datasetDims(hid_t ds) {
+  Hid space(H5Dget_space(ds), H5Sclose);
+  const int rank = H5Sget_simple_extent_ndims(space);
+  std::vector<hsize_t> dims(std::max(rank, 0));
+  if (rank > 0) H5Sget_simple_extent_dims(space, dims.data(), nullptr);
+  return dims;
+}
+
+std::vector<double> readDoubles(hid_t ds, std::size_t count, const std::string& file) {
+  std::vector<double> v(count);
+  if (count && H5Dread(ds, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()) < 0)
+    readFail("read a dataset", file);
+  return v;
+}
+
+std::vector<std::int64_t> readInts(hid_t ds, std::size_t count, const std::string& file) {
+  std::vector<std::int64_t> v(count);
+  if (count && H5Dread(ds, H5T_NATIVE_INT64, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()) < 0)
+    readFail("read a dataset", file);
+  return v;
+}
+
+// Copy group `src` (an open group of `file`) with its attributes, datasets and subgroups to
+// `dst` through the writer.
+void copyGroup(hid_t src, H5Writer& h5, const std::string& dst, const std::string& file) {
+  h5.createGroup(dst);
+  for (const std::string& a : attributeNames(src))
+    writeAttribute(h5, dst, a, readAttribute(src, a, file));
+  for (const std::string& child : childNames(src)) {
+    H5O_info_t info;
+    if (H5Oget_info_by_name(src, child.c_str(), &info, H5P_DEFAULT) < 0)
+      readFail("inspect " + child, file);
+    const std::string path = dst + "/" + child;
+    if (info.type == H5O_TYPE_GROUP) {
+      Hid g(H5Gopen2(src, child.c_str(), H5P_DEFAULT), H5Gclose);
+      copyGroup(g, h5, path, file);
+      continue;
+    }
+    if (info.type != H5O_TYPE_DATASET) continue;
+    Hid ds(H5Dopen2(src, child.c_str(), H5P_DEFAULT), H5Dclose);
+    Hid type(H5Dget_type(ds), H5Tclose);
+    const std::vector<hsize_t> dims = datasetDims(ds);
+    std::size_t count = 1;
+    for (hsize_t d : dims) count *= d;
+    switch (H5Tget_class(type)) {
+      case H5T_FLOAT: {
+        const std::vector<double> v = readDoubles(ds, count, file);
+        if (dims.size() == 2) {
+          Eigen::MatrixXd M(dims[0], dims[1]);
+          for (hsize_t r = 0; r < dims[0]; ++r)
+            for (hsize_t c = 0; c < dims[1]; ++c) M(r, c) = v[r * dims[1] + c];
+          h5.writeMatrix(path, M);
+        } else {
+          h5.writeVector(path, v);
+        }
+        break;
+      }
+      case H5T_INTEGER:
+        h5.writeIntVector(path, readInts(ds, count, file));
+        break;
+      case H5T_STRING: {
+        Hid mem(H5Tcopy(H5T_C_S1), H5Tclose);
+        H5Tset_size(mem, H5T_VARIABLE);
+        H5Tset_cset(mem, H5Tget_cset(type));
+        std::vector<char*> raw(count, nullptr);
+        if (count && H5Dread(ds, mem, H5S_ALL, H5S_ALL, H5P_DEFAULT, raw.data()) < 0)
+          readFail("read strings " + child, file);
+        std::vector<std::string> v;
+        for (char* s : raw) v.emplace_back(s ? s : "");
+        Hid space(H5Dget_space(ds), H5Sclose);
+        if (count) H5Dvlen_reclaim(mem, space, H5P_DEFAULT, raw.data());
+        h5.writeStrings(path, v);
+        break;
+      }
+      default:
+        readFail("copy dataset " + child + " (unsupported type)", file);
+    }
+    for (const std::string& a : attributeNames(ds))
+      writeAttribute(h5, path, a, readAttribute(ds, a, file));
+  }
+}
+
+bool endsWith(const std::string& s, const std::string& suffix) {
+  return s.size() >= suffix.size() &&
+         s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+hid_t openReadOnly(const std::string& path) {
+  silenceHdf5Errors();
+  const hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (f < 0) throw std::runtime_error("cannot open result file '" + path + "'");
+  return f;
+}
+
+}  // namespace
+
+int mergeResultFiles(const std::vector<std::string>& inputs, const std::string& out) {
+  if (inputs.empty()) throw std::invalid_argument("merge needs at least one input file");
+  H5Writer h5(out);
+  std::set<std::string> seen;
+  std::string from;
+  for (std::size_t k = 0; k < inputs.size(); ++k) {
+    const std::string& in = inputs[k];
+    Hid file(openReadOnly(in), H5Fclose);
+    Hid root(H5Gopen2(file, "/", H5P_DEFAULT), H5Gclose);
+    if (k == 0)
+      for (const std::string& a : attributeNames(root))
+        writeAttribute(h5, "/", a, readAttribute(root, a, in));
+    from += (from.empty() ? "" : ";") + in;
+    if (H5Lexists(file, "points", H5P_DEFAULT) <= 0) continue;
+    Hid points(H5Gopen2(file, "points", H5P_DEFAULT), H5Gclose);
+    for (const std::string& name : childNames(points)) {
+      if (endsWith(name, ".partial")) continue;  // a killed run's unfinished point
+      if (!seen.insert(name).second)
+        throw std::runtime_error("point '" + name + "' appears in two inputs (the second: " + in +
+                                 ")");
+      Hid g(H5Gopen2(points, name.c_str(), H5P_DEFAULT), H5Gclose);
+      copyGroup(g, h5, "points/" + name, in);
+    }
+  }
+  h5.createGroup("points");
+  h5.setAttribute("/", "merged_from", from);
+  h5.setAttribute("/", "shard", "merged");
+  h5.commit();
+  return static_cast<int>(seen.size());
+}
+
+std::map<std::string, PointRecord> readPoints(const std::string& path) {
+  std::map<std::string, PointRecord> out;
+  Hid file(openReadOnly(path), H5Fclose);
+  if (H5Lexists(file, "points", H5P_DEFAULT) <= 0) return out;
+  Hid points(H5Gopen2(file, "points", H5P_DEFAULT), H5Gclose);
+  for (const std::string& name : childNames(points)) {
+    if (endsWith(name, ".partial")) continue;
+    Hid g(H5Gopen2(points, name.c_str(), H5P_DEFAULT), H5Gclose);
+    PointRecord rec;
+    for (const std::string& a : attributeNames(g)) rec.attrs[a] = readAttribute(g, a, path).text();
+    for (const char* ds_name : {"real_time_s", "parent"}) {
+      if (H5Lexists(g, ds_name, H5P_DEFAULT) <= 0) continue;
+      Hid ds(H5Dopen2(g, ds_name, H5P_DEFAULT), H5Dclose);
+      std::size_t count = 1;
+      for (hsize_t d : datasetDims(ds)) count *= d;
+      if (std::string(ds_name) == "real_time_s")
+        rec.real_s = readDoubles(ds, count, path);
+      else
+        rec.parent = readInts(ds, count, path);
+    }
+    out[name] = std::move(rec);
+  }
+  return out;
+}
+
+}  // namespace minv
