@@ -1,6 +1,6 @@
 // Issue 7's benchmarks: `abi` against the field, side by side in one run, as ratios.
 //
-//   build/bench_abi [--full] [--out results/perf.h5] [benchmark flags]
+//   build/bench_abi [--full] [--isa LEVEL] [--out results/perf.h5] [benchmark flags]
 //   build/bench_abi --memory-n N [--out results/perf_memory.h5]
 //
 // Google Benchmark times, single thread (BLAS threads 1) unless stated, medians of 5
@@ -13,16 +13,22 @@
 // scalar) per second, abi on 2 threads, and abi's parts (configure, sweeps, writes of the
 // output): where its time goes. Every raw repetition, the medians, the ratios, the parts and
 // the provenance go to one HDF5 file (a run with --benchmark_filter writes none unless --out).
+// --isa LEVEL (baseline, avx2, avx512, native) forces abi's instruction-set level, as MINV_ISA
+// does; every level this CPU runs is also timed on its own (inverse/serial/abi-<level>/n).
 // --memory-n N inverts one serial chain of n = N (N² doubles of output) and reports the peak
 // resident memory beyond the output: the scratch is O(n·W), not O(n²).
 #include <benchmark/benchmark.h>
 #include <cblas.h>
+#include <sys/mman.h>
 #include <sys/resource.h>
 
 #include <algorithm>
 #include <chrono>
+#include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -34,6 +40,7 @@
 #include "experiments/lib/timing.hpp"
 #include "generators/random_tree.hpp"
 #include "solvers/abi.hpp"
+#include "solvers/abi_variants.hpp"
 #include "solvers/solver.hpp"
 
 extern "C" void openblas_set_num_threads(int);
@@ -56,6 +63,21 @@ const Problem& problem(Topology t, int n) {
     p = std::make_unique<Problem>(Problem{std::move(m), std::move(q)});
   }
   return *p;
+}
+
+// A zeroed output matrix on transparent huge pages where the kernel allows them (THP mode
+// "madvise" here): asked for before the pages are first touched, so that writing n² doubles
+// column by column does not miss the TLB every few columns. Every solver and the store floor
+// write into one of these.
+Eigen::MatrixXd outputMatrix(int rows, int cols) {
+  Eigen::MatrixXd X(rows, cols);
+  constexpr std::uintptr_t kHuge = std::uintptr_t(2) << 20;
+  const auto first = reinterpret_cast<std::uintptr_t>(X.data());
+  const std::uintptr_t begin = (first + kHuge - 1) / kHuge * kHuge;
+  const std::uintptr_t end = (first + sizeof(double) * X.size()) / kHuge * kHuge;
+  if (end > begin) madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
+  X.setZero();
+  return X;
 }
 
 // Whether a solver's point is measured: the one skip table (experiments/lib/budget.hpp,
@@ -98,73 +120,65 @@ class Collector : public benchmark::ConsoleReporter {
   }
 };
 
-// The pipeline of one registered solver: configure(q), then inverse (m = 0) or solve.
-void registerSolver(const std::string& solver, Topology t, int n, int m, int threads) {
+// The pipeline of one registered solver: configure(q), then inverse (m = 0) or solve. `make`
+// replaces the registry's factory (abi at a forced instruction-set level).
+void registerSolver(const std::string& solver, Topology t, int n, int m, int threads,
+                    std::function<std::unique_ptr<Solver>()> make = {}) {
   std::string name = std::string(m == 0 ? "inverse/" : "solve/") + topologyName(t) + "/" + solver +
                      (threads > 1 ? "@" + std::to_string(threads) : "") + "/" + std::to_string(n) +
                      (m ? "/" + std::to_string(m) : "");
-  benchmark::RegisterBenchmark(
-      name.c_str(),
-      [=](benchmark::State& state) {
-        const Problem& p = problem(t, n);
-        auto s = makeSolver(solver);
-        s->setThreads(threads);
-        s->prepare(p.model);
-        const int nv = p.model.nv();
-        Eigen::MatrixXd X(nv, m ? m : nv), R = Eigen::MatrixXd::Random(nv, m ? m : 1);
-        X.setZero();  // the output's pages are touched before timing, for every solver alike
-        for (auto _ : state) {
-          s->configure(p.q);
-          if (m == 0)
-            s->inverse(X);
-          else
-            s->solve(R, X);
-          benchmark::DoNotOptimize(X.data());
-          benchmark::ClobberMemory();
-        }
-        s->setThreads(1);
-      })
+  benchmark::RegisterBenchmark(name.c_str(),
+                               [=](benchmark::State& state) {
+                                 const Problem& p = problem(t, n);
+                                 auto s = make ? make() : makeSolver(solver);
+                                 s->setThreads(threads);
+                                 s->prepare(p.model);
+                                 const int nv = p.model.nv();
+                                 // The output's pages are touched before timing, for every solver
+                                 // alike.
+                                 Eigen::MatrixXd X = outputMatrix(nv, m ? m : nv),
+                                                 R = Eigen::MatrixXd::Random(nv, m ? m : 1);
+                                 for (auto _ : state) {
+                                   s->configure(p.q);
+                                   if (m == 0)
+                                     s->inverse(X);
+                                   else
+                                     s->solve(R, X);
+                                   benchmark::DoNotOptimize(X.data());
+                                   benchmark::ClobberMemory();
+                                 }
+                                 s->setThreads(1);
+                               })
       ->Unit(benchmark::kNanosecond)
       ->UseRealTime();
 }
 
-// abi's parts on the serial chain, one thread: configure (kinematics + articulated
-// inertias), the sweeps alone, and the blocks (sweeps + writing each block's strips of M⁻¹:
-// the inverse). Where the time of inverse/serial/abi goes.
+// abi's parts on the serial chain, one thread, at the level in use: configure (kinematics +
+// articulated inertias), the sweeps alone, and the blocks (sweeps + writing each block's
+// strips of M⁻¹: the inverse). Where the time of inverse/serial/abi goes.
 void registerParts(int n) {
   for (const char* part : {"configure", "sweeps", "blocks"}) {
     const std::string name = "parts/serial/" + std::string(part) + "/" + std::to_string(n);
-    benchmark::RegisterBenchmark(
-        name.c_str(),
-        [=](benchmark::State& state) {
-          const Problem& p = problem(Topology::Serial, n);
-          const Model& m = p.model;
-          Kinematics<double> kin(m);
-          Articulated<double> art(m);
-          AbiWorkspace<double> ws(m);
-          computeKinematics<double>(m, p.q, kin);
-          articulatedInertias<double>(m, kin, art);
-          Eigen::MatrixXd X = Eigen::MatrixXd::Zero(n, n);
-          constexpr int W = kAbiLanes<double>;
-          const std::string what = part;
-          NoMark none;
-          for (auto _ : state) {
-            if (what == "configure") {
-              computeKinematics<double>(m, p.q, kin);
-              articulatedInertias<double>(m, kin, art);
-            } else if (what == "sweeps") {
-              for (int c0 = 0; c0 + W <= n; c0 += W) {
-                abiBackward<double, W, true>(m, kin, art, ws.wide[0], m.dofBody(c0 + W - 1), c0, W);
-                abiForward<double, W>(m, kin, art, ws.wide[0], m.dofBody(c0 + W - 1));
-              }
-            } else {
-              for (int c0 = 0; c0 + W <= n; c0 += W)
-                abiInverseBlock<double, W>(m, kin, art, ws.wide[0], c0, X, none);
-            }
-            benchmark::DoNotOptimize(X.data());
-            benchmark::ClobberMemory();
-          }
-        })
+    benchmark::RegisterBenchmark(name.c_str(),
+                                 [=](benchmark::State& state) {
+                                   const Problem& p = problem(Topology::Serial, n);
+                                   const std::unique_ptr<Solver> s = makeSolver("abi");
+                                   const AbiVariantApi& level = abiVariant(abiLevel());
+                                   s->prepare(p.model);
+                                   s->configure(p.q);
+                                   Eigen::MatrixXd X = outputMatrix(n, n);
+                                   const std::string what = part;
+                                   for (auto _ : state) {
+                                     if (what == "configure")
+                                       s->configure(p.q);
+                                     else if (what == "sweeps")
+                                       level.sweeps(*s);
+                                     else
+                                       s->inverse(X);
+                                     benchmark::DoNotOptimize(X.data());
+                                     benchmark::ClobberMemory();
+                                   }
+                                 })
         ->Unit(benchmark::kNanosecond)
         ->UseRealTime();
   }
@@ -189,13 +203,19 @@ void registerAll(bool full) {
             registerSolver(s, t, n, m, 1);
       }
       if (n >= 256 && affordable("abi", full, t, n)) registerSolver("abi", t, n, 0, 2);
-      if (n >= 256 && t == Topology::Serial) registerParts(n);
+      // abi at every level this CPU runs (the serial chain), beside the level in use.
+      if (t == Topology::Serial && n >= 16)
+        for (Isa l : abiLevels())
+          if (abiLevelUsable(l))
+            registerSolver("abi-" + std::string(isaName(l)), t, n, 0, 1,
+                           [l] { return makeAbiAt(l); });
+      if ((n >= 256 || (n >= 16 && n <= 64)) && t == Topology::Serial) registerParts(n);
     }
   for (int n : sizes) {
     // The memory floor: write n² doubles.
     benchmark::RegisterBenchmark(("store/" + std::to_string(n)).c_str(),
                                  [n](benchmark::State& st) {
-                                   Eigen::MatrixXd X = Eigen::MatrixXd::Zero(n, n);
+                                   Eigen::MatrixXd X = outputMatrix(n, n);
                                    double v = 0;
                                    for (auto _ : st) {
                                      X.setConstant(v += 1);
@@ -343,7 +363,7 @@ void report(bool full, const std::string& out) {
   std::printf("%6s %10s %10s %10s %10s %10s %10s\n", "n", "configure", "sweeps", "writes",
               "inverse", "store", "pipeline");
   std::vector<double> pn, parts[6];
-  for (int n : {256, 512, 1024, 2048, 4096}) {
+  for (int n : {16, 32, 64, 256, 512, 1024, 2048, 4096}) {
     const std::string N = std::to_string(n);
     const double c = med("parts/serial/configure/" + N), sw = med("parts/serial/sweeps/" + N),
                  bl = med("parts/serial/blocks/" + N);
@@ -365,6 +385,36 @@ void report(bool full, const std::string& out) {
     h5.writeVector("parts/serial/n", pn);
     for (int k = 0; k < 6; ++k) h5.writeVector("parts/serial/" + std::string(pnames[k]), parts[k]);
   }
+  // abi at each instruction-set level (serial chain, one thread), and each over the level in use.
+  const std::string used = isaName(abiLevel());
+  std::printf("\nserial, abi per instruction-set level (in use: %s), medians in us; / %s\n%6s",
+              used.c_str(), used.c_str(), "n");
+  std::vector<Isa> levels;
+  for (Isa l : abiLevels())
+    if (abiLevelUsable(l)) levels.push_back(l);
+  for (Isa l : levels) std::printf(" %10s %7s", isaName(l), "ratio");
+  std::printf("\n");
+  std::vector<double> ln;
+  std::map<std::string, std::vector<double>> lcols;
+  for (int n : sizes) {
+    const std::string N = std::to_string(n);
+    const double base = med("inverse/serial/abi-" + used + "/" + N);
+    if (base == 0) continue;
+    ln.push_back(n);
+    std::printf("%6d", n);
+    for (Isa l : levels) {
+      const double x = med("inverse/serial/abi-" + std::string(isaName(l)) + "/" + N);
+      lcols[std::string(isaName(l)) + "_us"].push_back(x * 1e6);
+      lcols[std::string(isaName(l)) + "_over_" + used].push_back(x / base);
+      std::printf(" %10.1f %7.2f", x * 1e6, x / base);
+    }
+    std::printf("\n");
+  }
+  if (!ln.empty()) {
+    h5.writeVector("levels/serial/n", ln);
+    for (const auto& [name, v] : lcols) h5.writeVector("levels/serial/" + name, v);
+    if (file) file->setAttribute("levels/serial", "level_in_use", used);
+  }
   if (!file) return;
   file->commit();
   std::printf("\nwrote %s\n", out.c_str());
@@ -374,7 +424,8 @@ void report(bool full, const std::string& out) {
 // (with the provenance) to `out`.
 int memoryRun(int n, const std::string& out) {
   const Problem& p = problem(Topology::Serial, n);
-  AbiSolver s;
+  const std::unique_ptr<Solver> abi = makeSolver("abi");
+  Solver& s = *abi;
   s.prepare(p.model);
   Eigen::MatrixXd X(n, n);
   X.setZero();  // touch the output so it is resident before we measure
@@ -421,6 +472,8 @@ int main(int argc, char** argv) {
       full = true;
     } else if (!std::strcmp(argv[i], "--out") && i + 1 < argc) {
       out = argv[++i];
+    } else if (!std::strcmp(argv[i], "--isa") && i + 1 < argc) {
+      setenv("MINV_ISA", argv[++i], 1);  // abi's level (solvers/abi_variants.hpp)
     } else if (!std::strcmp(argv[i], "--memory-n") && i + 1 < argc) {
       memory_n = std::atoi(argv[++i]);
     } else {
@@ -428,6 +481,13 @@ int main(int argc, char** argv) {
     }
   }
   silenceHdf5Errors();
+  try {
+    const AbiVariantApi& v = abiVariant(abiLevel());
+    std::printf("abi: level %s (%s; widest %s, %d lanes)\n", v.level, v.target, v.widest, v.lanes);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bench_abi: error: %s\n", e.what());
+    return 2;
+  }
   openblas_set_num_threads(1);  // single thread unless a benchmark says otherwise
   // A filtered or listing run prints its table but writes no result file unless asked to.
   bool partial = false;

@@ -53,7 +53,7 @@ def poly_formula(coeffs, var="n"):
 
 
 PROVENANCE_KEYS = ("git_sha", "cpu_model", "cpu_signature", "cpu_extensions", "build_isa",
-                   "compiler", "blas_library", "date_utc")
+                   "abi_isa", "compiler", "blas_library", "date_utc")
 
 
 def cpu_name(f):

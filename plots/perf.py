@@ -7,7 +7,8 @@ every benchmark ("inverse/<topology>/<solver>/<n>", "solve/…/<n>/<m>", "store/
 "dgemm/<n>", "parts/serial/<part>/<n>"); ratios/<topology>/{n, abi_us, <peer>_over_abi};
 ratios/<topology>/generic/{n, abi-generic_us, <peer>_over_abi_generic}; abi/<topology>/{n,
 abi_gflops, abi_percent_of_dgemm, abi_over_store, abi_2thread_speedup, lapack_over_abi_solve8};
-parts/serial/…; attributes ratios/<topology>@skipped_<peer> (the skip table's reason)."""
+parts/serial/…; levels/serial/{n, <level>_us, <level>_over_<level in use>} with attribute
+level_in_use; attributes ratios/<topology>@skipped_<peer> (the skip table's reason)."""
 import os
 
 import h5py
@@ -18,7 +19,7 @@ from common import PAPER, RESULTS, cpu_name, provenance_line, result_path, save
 # The sizes of the "abi vs every peer" table.
 TABLE_N = (16, 64, 256, 1024, 2048)
 # The Θ(n²) implementations drawn in theta_n2 (those present in the file).
-THETA = (("abi", "abi (native)", "o-"), ("abi-generic", "abi (generic x86-64)", "o--"),
+THETA = (("abi", "abi (level in use)", "o-"), ("abi-generic", "abi (baseline x86-64)", "o--"),
          ("dart", "DART getInvMassMatrix", "s-"), ("bullet", "Bullet btMultiBody", "^-"),
          ("mujoco", "MuJoCo sparse LᵀDL", "v-"), ("ltdl", "Featherstone LᵀDL", "d-"))
 
@@ -177,6 +178,30 @@ def parts_section(f):
     return lines
 
 
+def levels_section(f):
+    """abi at every instruction-set level this CPU runs (serial chain, one thread)."""
+    if "levels" not in f or "serial" not in f["levels"]:
+        return []
+    g = f["levels"]["serial"]
+    used = text(g.attrs.get("level_in_use", "?"))
+    levels = [k[: -len("_us")] for k in g.keys() if k.endswith("_us")]
+    order = {"baseline": 0, "avx2": 1, "avx512": 2, "native": 3}
+    levels.sort(key=lambda x: order.get(x, 9))
+    lines = ["", "## abi per instruction-set level (serial chain, one thread)", "",
+             f"Each level's module timed side by side in one run (configure + inverse, medians "
+             f"in µs), and its time over the level in use (`{used}`, the highest this CPU "
+             "runs). `MINV_ISA` or `bench_abi --isa` forces a level.", "",
+             "| n | " + " | ".join(f"{l} µs | {l} / {used}" for l in levels) + " |",
+             "|---" * (1 + 2 * len(levels)) + "|"]
+    for i, nv in enumerate(g["n"][()]):
+        cells = []
+        for l in levels:
+            cells += [cell("{:.1f}", g[l + "_us"][()][i]),
+                      cell("{:.2f}", g[f"{l}_over_{used}"][()][i])]
+        lines.append(f"| {int(nv)} | " + " | ".join(cells) + " |")
+    return lines
+
+
 def memory_section():
     """The largest inverse: peak resident memory beyond the output (results/perf_memory.h5)."""
     path = os.path.join(RESULTS, "perf_memory.h5")
@@ -201,9 +226,10 @@ def machine_lines(f):
     def get(k):
         return text(a.get(k, "?"))
     return [f"- CPU: {get('cpu_model')}, {get('cpu_cores')} cores (host {get('hostname')})",
-            f"- compiler: {get('compiler')}, flags `{get('build_flags')}`; `abi-generic` is "
-            "the same source compiled with `-march=x86-64` (SSE2), as Debian compiled DART, "
-            "Bullet and MuJoCo",
+            f"- compiler: {get('compiler')}, flags `{get('build_flags')}`",
+            f"- abi's instruction-set level in use: {get('abi_isa')} (chosen from CPUID; "
+            f"levels here: {get('abi_isa_levels')}); `abi-generic` is abi's baseline level "
+            "(`-march=x86-64`, SSE2), as Debian compiled DART, Bullet and MuJoCo",
             f"- BLAS: {get('blas_library')}, {get('blas_threads')} thread(s); OpenMP up to "
             f"{get('omp_max_threads')} threads (abi's two-thread runs only)",
             f"- run: git {get('git_sha')}, {get('date_utc')}, mode {get('mode')}"]
@@ -216,8 +242,9 @@ def versus_section(f):
     lines = ["## abi against every peer", "",
              f"Machine: {cpu}. Medians of 5 interleaved repetitions in one run, one core, the "
              "pipeline from q to M⁻¹ (configure + inverse). Each cell is peer time / abi time "
-             "with abi built for this CPU (`-march=native`), then / abi built for generic "
-             "x86-64 like the peers' Debian packages; > 1 means abi is faster.", ""]
+             "with abi at the instruction-set level this CPU runs (chosen at run time), then / "
+             "abi at its baseline level (generic x86-64, like the peers' Debian packages); > 1 "
+             "means abi is faster.", ""]
     for topo in ("serial", "branched"):
         lines += [f"### {topo} trees", ""] + versus_table(f, topo, mode) + [""]
     lines.append("![Θ(n²) implementations](figures/theta_n2.png)")
@@ -250,6 +277,7 @@ def main():
         ratios_figure(f)
         lines.append("![ratios](figures/perf_ratios.png)")
         lines += parts_section(f)
+        lines += levels_section(f)
     lines += memory_section()
     with open(os.path.join(PAPER, "PERFORMANCE.md"), "w") as out:
         out.write("\n".join(lines) + "\n")

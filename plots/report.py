@@ -31,8 +31,8 @@ def figure(lines, name, caption):
 
 def machine(lines, root, title):
     keys = ["cpu_model", "cpu_vendor", "cpu_signature", "cpu_extensions", "build_isa",
-            "cpu_cores", "hostname", "compiler", "build_flags", "blas_library",
-            "blas_threads", "omp_max_threads", "git_sha", "date_utc", "mode", "seed",
+            "abi_isa", "abi_isa_levels", "cpu_cores", "hostname", "compiler", "build_flags",
+            "blas_library", "blas_threads", "omp_max_threads", "git_sha", "date_utc", "mode", "seed",
             "min_time_s", "repetitions", "timer", "reference"]
     lines += [f"**{title}**", "", "| attribute | value |", "| --- | --- |"]
     lines += [f"| {k} | {root[k]} |" for k in keys if k in root]

@@ -1,14 +1,8 @@
+// abi's solver on doubles. Not compiled into libminv_solvers: each instruction-set level
+// compiles it into its own module (solvers/abi_variant.cpp, solvers/abi_variants.hpp).
 #include "solvers/abi.hpp"
 
 namespace minv {
-
-std::vector<StageCount> AbiSolver::countStages(const Model& model, const Eigen::VectorXd& q,
-                                               int m) {
-  flopReset();
-  StageCounter mark;
-  abiPipeline<Counted>(model, q, m, mark);
-  return stageCounts(mark);
-}
 
 void AbiSolver::setThreads(int n) {
   threads_ = std::max(1, n);
@@ -33,6 +27,16 @@ void AbiSolver::inverse(MatrixOut Minv) {
 
 void AbiSolver::solve(MatrixIn R, MatrixOut X) {
   abiSolve<double>(*model_, *kin_, *art_, *ws_, R, X);
+}
+
+void AbiSolver::sweepsOnly() {
+  constexpr int W = kAbiLanes<double>;
+  const Model& m = *model_;
+  for (int c0 = 0; c0 + W <= m.nv(); c0 += W) {
+    const int last = m.dofBody(c0 + W - 1);
+    abiBackward<double, W, true>(m, *kin_, *art_, ws_->wide[0], last, c0, W);
+    abiForward<double, W>(m, *kin_, *art_, ws_->wide[0], last);
+  }
 }
 
 }  // namespace minv

@@ -56,10 +56,17 @@ inline int omp_thread() {
 // (measured on AVX2, Zen 3, n = 2048: 8 and 12 lanes are slower per column, latency-bound;
 // 16 lanes already spill part of Y to L1, 32 spill more). The counting scalar runs one column
 // at a time: its counts are the algorithm's, column by column.
+// Each instruction-set level's module may set its own (MINV_ABI_LANES, CMakeLists.txt); 16 is
+// best at every level measured on Zen 5 (one run per change, each level's time over the
+// unchanged avx512 one, serial n = 256 … 2048): baseline (SSE2) with 8 lanes is no faster,
+// avx2 with 8 is 10–18 % slower, and avx512 with 32 (four zmm per row) is 10–12 % slower.
+#ifndef MINV_ABI_LANES
+#define MINV_ABI_LANES 16
+#endif
 template <class T>
 inline constexpr int kAbiLanes = 1;
 template <>
-inline constexpr int kAbiLanes<double> = 16;
+inline constexpr int kAbiLanes<double> = MINV_ABI_LANES;
 
 // A spatial vector per column: six rows of W lanes.
 template <class T, int W>
@@ -437,6 +444,9 @@ class AbiSolver final : public Solver {
   void configure(const Eigen::VectorXd& q) override;
   void inverse(MatrixOut Minv) override;
   void solve(MatrixIn R, MatrixOut X) override;
+  // The two sweeps of every full block of columns on one thread, writing nothing: the part of
+  // inverse() that is arithmetic (bench_abi's parts).
+  void sweepsOnly();
 
  private:
   const Model* model_ = nullptr;

@@ -1,8 +1,20 @@
-// One instruction-set variant of `abi` (see solvers/abi_variants.hpp): the same source as the
-// native solver, solvers/abi.cpp, compiled again with the variant's flags into its own shared
-// library, with one exported factory.
+// One instruction-set level of `abi` (see solvers/abi_variants.hpp): the solver's source,
+// solvers/abi.cpp, compiled with the level's flags (MINV_ABI_LEVEL, MINV_ABI_TARGET) into a
+// module of its own, which exports only the table below.
 #include "solvers/abi.cpp"
+#include "solvers/abi_variants.hpp"
 
-extern "C" __attribute__((visibility("default"))) minv::Solver* minv_abi_make_generic() {
+namespace {
+
+minv::Solver* make() {
   return new minv::AbiSolver();
 }
+
+void sweeps(minv::Solver& abi) {
+  static_cast<minv::AbiSolver&>(abi).sweepsOnly();
+}
+
+}  // namespace
+
+extern "C" __attribute__((visibility("default"))) const minv::AbiVariantApi minv_abi_variant = {
+    MINV_ABI_LEVEL, MINV_ABI_TARGET, MINV_COMPILED_ISA, minv::kAbiLanes<double>, make, sweeps};

@@ -6,9 +6,9 @@
 
 #include <stdexcept>
 #include <string>
-#include <vector>
 
 #include "solvers/dart_bridge.hpp"
+#include "solvers/module.hpp"
 #include "solvers/plain_tree_model.hpp"
 
 namespace minv {
@@ -21,30 +21,12 @@ struct BridgeModule {
   std::string error;
 };
 
-// The directory of the library this file is in (libminv_solvers), where the module is built
-// and installed; empty if unknown.
-std::string ownDirectory() {
-  Dl_info info;
-  if (dladdr(reinterpret_cast<void*>(&ownDirectory), &info) == 0 || !info.dli_fname) return {};
-  const std::string path = info.dli_fname;
-  const std::size_t slash = path.rfind('/');
-  return slash == std::string::npos ? std::string() : path.substr(0, slash + 1);
-}
-
 const BridgeModule& bridgeModule() {
   static const BridgeModule module = [] {
     BridgeModule m;
     // RTLD_DEEPBIND: libdart, loaded with the module, binds to its own Eigen functions first.
     const int flags = RTLD_NOW | RTLD_LOCAL | RTLD_DEEPBIND;
-    // Next to libminv_solvers (build tree, install), else where this build put it.
-    void* handle = nullptr;
-    std::vector<std::string> paths = {ownDirectory() + MINV_DART_BRIDGE_NAME};
-    if (paths[0] != MINV_DART_BRIDGE_BUILD_PATH) paths.push_back(MINV_DART_BRIDGE_BUILD_PATH);
-    for (const std::string& path : paths) {
-      if ((handle = dlopen(path.c_str(), flags))) break;
-      const char* e = dlerror();
-      m.error += (m.error.empty() ? "" : "; ") + std::string(e ? e : path);
-    }
+    void* handle = openModule(MINV_DART_BRIDGE_NAME, MINV_DART_BRIDGE_BUILD_PATH, flags, &m.error);
     if (!handle) {
       m.error = "dart: cannot load the DART bridge module: " + m.error;
       return m;

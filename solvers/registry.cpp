@@ -35,10 +35,11 @@ SolverEntry entry(const char* name, const char* summary) {
 
 std::vector<SolverEntry> builtIn() {
   return {
-      entry<AbiSolver>("abi", "Θ(n²) M⁻¹ from articulated-body inertias (Drumwright Alg. 1-2)"),
+      {"abi", abiSummary(), makeAbi, &AbiSolver::countStages},
       {"abi-generic",
-       "abi compiled for generic x86-64 (SSE2), like Debian's peer libraries; counts as abi",
-       makeAbiGeneric,
+       "abi's baseline level (x86-64, SSE2: what Debian's peer libraries are compiled for); "
+       "counts as abi",
+       [] { return makeAbiAt(Isa::Baseline); },
        {}},
       entry<LapackSolver>("lapack", "CRBA + LAPACKE dpotrf/dpotri/dpotrs (OpenBLAS)"),
       entry<LtlSolver>("ltl", "CRBA + Featherstone 2005 branch-induced-sparsity LᵀL"),

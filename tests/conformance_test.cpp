@@ -16,6 +16,7 @@
 
 #include "core/crba.hpp"
 #include "generators/random_tree.hpp"
+#include "solvers/abi_variants.hpp"
 #include "solvers/solver.hpp"
 
 namespace minv {
@@ -27,19 +28,25 @@ void PrintTo(const ConformanceCase& c, std::ostream* os) {
 
 namespace {
 
-class Conformance : public ::testing::TestWithParam<std::tuple<std::string, ConformanceCase>> {};
-
-TEST_P(Conformance, Checks) {
-  const auto& [solver, c] = GetParam();
+// Every check of one case: a pass, a skip with the solver's reason, or a failure per check.
+void expectConforms(const std::string& solver, const SolverFactory& make,
+                    const ConformanceCase& c) {
   ConformanceReport report;
   report.solver = solver;
-  checkCase(findSolver(solver)->make, c, report);
+  checkCase(make, c, report);
   if (report.checks.empty() && report.errors.empty() && !report.skipped.empty())
     GTEST_SKIP() << solver << ": " << report.skipped.front().second;
   for (const auto& [name, what] : report.errors) ADD_FAILURE() << solver << " threw: " << what;
   for (const ConformanceCheck& k : report.checks)
     EXPECT_TRUE(k.passed) << solver << " " << k.check << ": " << k.value << " > " << k.bound
                           << " (kappa " << conformanceProblem(c).kappa << ")";
+}
+
+class Conformance : public ::testing::TestWithParam<std::tuple<std::string, ConformanceCase>> {};
+
+TEST_P(Conformance, Checks) {
+  const auto& [solver, c] = GetParam();
+  expectConforms(solver, findSolver(solver)->make, c);
 }
 
 std::string caseName(const ::testing::TestParamInfo<Conformance::ParamType>& info) {
@@ -57,6 +64,32 @@ INSTANTIATE_TEST_SUITE_P(Registry, Conformance,
                          ::testing::Combine(::testing::ValuesIn(solverNames()),
                                             ::testing::ValuesIn(suiteCases())),
                          caseName);
+
+// abi at every instruction-set level (solvers/abi_variants.hpp), whichever the registry's
+// `abi` uses: each level this build has and this CPU runs passes every case; any other level is
+// skipped, and the skip says why (not built, the extensions this CPU lacks, or checked above as
+// the registry's abi or abi-generic).
+class ConformanceLevels : public ::testing::TestWithParam<std::tuple<Isa, ConformanceCase>> {};
+
+TEST_P(ConformanceLevels, Checks) {
+  const auto& [isa, c] = GetParam();
+  std::string why;
+  if (!abiLevelUsable(isa, &why)) GTEST_SKIP() << "abi level " << isaName(isa) << ": " << why;
+  // The registry's abi and abi-generic are these levels: checked above under their names.
+  if (isa == abiLevel()) GTEST_SKIP() << "abi level " << isaName(isa) << " is the registry's abi";
+  if (isa == Isa::Baseline && findSolver("abi-generic"))
+    GTEST_SKIP() << "abi level baseline is the registry's abi-generic";
+  expectConforms(
+      std::string("abi at ") + isaName(isa), [isa = isa] { return makeAbiAt(isa); }, c);
+}
+
+INSTANTIATE_TEST_SUITE_P(AbiLevels, ConformanceLevels,
+                         ::testing::Combine(::testing::ValuesIn(kIsas),
+                                            ::testing::ValuesIn(suiteCases())),
+                         [](const ::testing::TestParamInfo<ConformanceLevels::ParamType>& info) {
+                           return testNameOf(std::string(isaName(std::get<0>(info.param))) + "_" +
+                                             std::get<1>(info.param).name);
+                         });
 
 // The library's report: a registered solver passes with every case run; a deliberately wrong
 // solver (abi with one entry of M⁻¹ perturbed) fails the inverse and triangle checks, so the

@@ -1,5 +1,5 @@
 // The reference impulse sweeps (core/impulse_sweeps.hpp) against a dense inverse of CRBA's M,
-// and abi's SIMD kernel (solvers/abi.hpp, through the registry: abi and abi-generic) against
+// and abi's SIMD kernel (solvers/abi.hpp, at every instruction-set level this CPU runs) against
 // the reference, on every tree kind (serial and branched, fixed and floating base, revolute
 // and mixed joints, the centipede with yaw and spherical segment joints) and every lane
 // remainder: nv mod 16 takes each value 0 … 15 with nv ≥ 16 (full blocks of 16 lanes and a
@@ -32,6 +32,7 @@
 #include "core/kinematics.hpp"
 #include "generators/centipede.hpp"
 #include "generators/random_tree.hpp"
+#include "solvers/abi_variants.hpp"
 #include "solvers/solver.hpp"
 
 namespace minv {
@@ -241,24 +242,28 @@ TEST(ImpulseSweeps, SpatialImpulsesMatchDenseProducts) {
   }
 }
 
-// The SIMD kernel as registered: abi, and abi-generic (the same kernel for generic x86-64)
-// where it is built.
-std::vector<std::string> abiSolvers() {
-  std::vector<std::string> out;
-  for (const char* name : {"abi", "abi-generic"})
-    if (findSolver(name)) out.push_back(name);
+// The SIMD kernel at every instruction-set level this CPU runs (solvers/abi_variants.hpp);
+// every level's lane count divides kLanes, so the remainders above cover each of them.
+std::vector<Isa> abiLevelsHere() {
+  std::vector<Isa> out;
+  for (Isa l : abiLevels())
+    if (abiLevelUsable(l)) {
+      EXPECT_EQ(kLanes % abiVariant(l).lanes, 0) << isaName(l);
+      out.push_back(l);
+    }
   return out;
 }
 
 // abi's inverse() against the reference, column by column.
 TEST(ImpulseSweeps, AbiInverseMatchesReference) {
-  ASSERT_FALSE(abiSolvers().empty());
+  ASSERT_FALSE(abiLevelsHere().empty());
   Worst worst;
   for (const Case& c : cases()) {
     const int n = c.model.nv();
     const Eigen::MatrixXd ref = reference(c);
-    for (const std::string& name : abiSolvers()) {
-      auto abi = makeSolver(name);
+    for (Isa level : abiLevelsHere()) {
+      const std::string name = std::string("abi at ") + isaName(level);
+      auto abi = makeAbiAt(level);
       abi->prepare(c.model);
       abi->configure(c.q);
       Eigen::MatrixXd X(n, n);
@@ -273,7 +278,7 @@ TEST(ImpulseSweeps, AbiInverseMatchesReference) {
 
 // abi's solve(R) against the reference's response to each column of R.
 TEST(ImpulseSweeps, AbiSolveMatchesReference) {
-  ASSERT_FALSE(abiSolvers().empty());
+  ASSERT_FALSE(abiLevelsHere().empty());
   std::vector<int> widths;
   for (int m = 1; m <= 17; ++m) widths.push_back(m);
   widths.push_back(33);
@@ -293,8 +298,9 @@ TEST(ImpulseSweeps, AbiSolveMatchesReference) {
         for (int i = 0; i < n; ++i) R(i, j) = rng.uniform(-1, 1);
       for (int j = 0; j < m; ++j)
         impulseResponse<double>(model, kin, art, R.col(j), ref.col(j), ws);
-      for (const std::string& name : abiSolvers()) {
-        auto abi = makeSolver(name);
+      for (Isa level : abiLevelsHere()) {
+        const std::string name = std::string("abi at ") + isaName(level);
+        auto abi = makeAbiAt(level);
         abi->prepare(model);
         abi->configure(c.q);
         Eigen::MatrixXd X(n, m);

@@ -12,6 +12,9 @@
 //   cpu_extensions   the vector extensions present ("sse4.2 avx fma avx2 avx512f …")
 //   build_isa        the widest extension minv's own code was compiled for ("avx512f",
 //                    "avx2+fma", … "sse2 (x86-64 baseline)")
+//   abi_isa          the level of abi's kernels in use (solvers/abi_variants.hpp): level,
+//                    target flags, widest extension, lanes ("avx512 (-march=x86-64-v4 …)")
+//   abi_isa_levels   every level and whether it can be used here, or why not
 //   cpu_cores        std::thread::hardware_concurrency()
 //   blas_library     openblas_get_config() ("OpenBLAS 0.3.21 DYNAMIC_ARCH …")
 //   blas_threads     openblas_get_num_threads()
@@ -29,7 +32,7 @@ namespace minv {
 
 struct Provenance {
   std::string git_sha, compiler, build_flags, minv_version, cpu_model, cpu_vendor, cpu_signature,
-      cpu_extensions, build_isa, blas_library, date_utc, hostname;
+      cpu_extensions, build_isa, abi_isa, abi_isa_levels, blas_library, date_utc, hostname;
   int cpu_cores = 0, blas_threads = 0, omp_max_threads = 0;
 };
 
