@@ -120,13 +120,16 @@ class Collector : public benchmark::ConsoleReporter {
   }
 };
 
-// The pipeline of one registered solver: configure(q), then inverse (m = 0) or solve. `make`
-// replaces the registry's factory (abi at a forced instruction-set level).
+// The pipeline of one registered solver: configure(q), then inverse (m = 0), inverseUpper
+// (m = kUpper: M⁻¹'s upper triangle only) or solve. `make` replaces the registry's factory (abi
+// at a forced instruction-set level).
+constexpr int kUpper = -1;
 void registerSolver(const std::string& solver, Topology t, int n, int m, int threads,
                     std::function<std::unique_ptr<Solver>()> make = {}) {
-  std::string name = std::string(m == 0 ? "inverse/" : "solve/") + topologyName(t) + "/" + solver +
+  const char* kind = m == 0 ? "inverse/" : m == kUpper ? "upper/" : "solve/";
+  std::string name = std::string(kind) + topologyName(t) + "/" + solver +
                      (threads > 1 ? "@" + std::to_string(threads) : "") + "/" + std::to_string(n) +
-                     (m ? "/" + std::to_string(m) : "");
+                     (m > 0 ? "/" + std::to_string(m) : "");
   benchmark::RegisterBenchmark(name.c_str(),
                                [=](benchmark::State& state) {
                                  const Problem& p = problem(t, n);
@@ -136,12 +139,14 @@ void registerSolver(const std::string& solver, Topology t, int n, int m, int thr
                                  const int nv = p.model.nv();
                                  // The output's pages are touched before timing, for every solver
                                  // alike.
-                                 Eigen::MatrixXd X = outputMatrix(nv, m ? m : nv),
-                                                 R = Eigen::MatrixXd::Random(nv, m ? m : 1);
+                                 Eigen::MatrixXd X = outputMatrix(nv, m > 0 ? m : nv),
+                                                 R = Eigen::MatrixXd::Random(nv, m > 0 ? m : 1);
                                  for (auto _ : state) {
                                    s->configure(p.q);
                                    if (m == 0)
                                      s->inverse(X);
+                                   else if (m == kUpper)
+                                     s->inverseUpper(X);
                                    else
                                      s->solve(R, X);
                                    benchmark::DoNotOptimize(X.data());
@@ -203,6 +208,10 @@ void registerAll(bool full) {
             registerSolver(s, t, n, m, 1);
       }
       if (n >= 256 && affordable("abi", full, t, n)) registerSolver("abi", t, n, 0, 2);
+      // M⁻¹'s upper triangle alone (inverseUpper), abi and lapack (which computes it anyway).
+      if (t == Topology::Serial && n >= 64)
+        for (const char* s : {"abi", "lapack"})
+          if (affordable(s, full, t, n)) registerSolver(s, t, n, kUpper, 1);
       // abi at every level this CPU runs (the serial chain), beside the level in use.
       if (t == Topology::Serial && n >= 16)
         for (Isa l : abiLevels())
@@ -384,6 +393,29 @@ void report(bool full, const std::string& out) {
   if (!pn.empty()) {
     h5.writeVector("parts/serial/n", pn);
     for (int k = 0; k < 6; ++k) h5.writeVector("parts/serial/" + std::string(pnames[k]), parts[k]);
+  }
+  // One triangle: inverseUpper against the full inverse and the store of n² doubles.
+  std::printf("\nserial, M^-1's upper triangle only (inverseUpper, one thread), medians in us\n");
+  std::printf("%6s %10s %10s %10s %12s %10s %12s\n", "n", "abi full", "abi upper", "upper/full",
+              "upper/store", "lapack up", "lapack/abi");
+  std::vector<double> un, ucols[5];
+  for (int n : sizes) {
+    const std::string N = std::to_string(n);
+    const double up = med("upper/serial/abi/" + N), whole = med("inverse/serial/abi/" + N);
+    if (up == 0 || whole == 0) continue;
+    const double store = med("store/" + N), lap = med("upper/serial/lapack/" + N);
+    const double row[5] = {whole * 1e6, up * 1e6, up / whole, store > 0 ? up / store : 0,
+                           lap > 0 ? lap / up : 0};
+    std::printf("%6d %10.1f %10.1f %10.2f %12.2f %10.1f %12.2f\n", n, row[0], row[1], row[2],
+                row[3], lap * 1e6, row[4]);
+    un.push_back(n);
+    for (int k = 0; k < 5; ++k) ucols[k].push_back(row[k]);
+  }
+  const char* unames[5] = {"abi_full_us", "abi_upper_us", "upper_over_full", "upper_over_store",
+                           "lapack_upper_over_abi_upper"};
+  if (!un.empty()) {
+    h5.writeVector("upper/serial/n", un);
+    for (int k = 0; k < 5; ++k) h5.writeVector("upper/serial/" + std::string(unames[k]), ucols[k]);
   }
   // abi at each instruction-set level (serial chain, one thread), and each over the level in use.
   const std::string used = isaName(abiLevel());

@@ -7,7 +7,8 @@ every benchmark ("inverse/<topology>/<solver>/<n>", "solve/…/<n>/<m>", "store/
 "dgemm/<n>", "parts/serial/<part>/<n>"); ratios/<topology>/{n, abi_us, <peer>_over_abi};
 ratios/<topology>/generic/{n, abi-generic_us, <peer>_over_abi_generic}; abi/<topology>/{n,
 abi_gflops, abi_percent_of_dgemm, abi_over_store, abi_2thread_speedup, lapack_over_abi_solve8};
-parts/serial/…; levels/serial/{n, <level>_us, <level>_over_<level in use>} with attribute
+parts/serial/…; upper/serial/{n, abi_full_us, abi_upper_us, upper_over_full,
+upper_over_store, lapack_upper_over_abi_upper}; levels/serial/{n, <level>_us, <level>_over_<level in use>} with attribute
 level_in_use; attributes ratios/<topology>@skipped_<peer> (the skip table's reason)."""
 import os
 
@@ -178,6 +179,27 @@ def parts_section(f):
     return lines
 
 
+def upper_section(f):
+    """One triangle: inverseUpper against the full inverse and the store (serial, one thread)."""
+    if "upper" not in f or "serial" not in f["upper"]:
+        return []
+    g = f["upper"]["serial"]
+    lines = ["", "## M⁻¹'s upper triangle only (serial chain, one thread)", "",
+             "`inverseUpper()` writes M⁻¹'s upper triangle and leaves the rest (for a symmetric "
+             "consumer such as the contact path). abi then skips the rows its blocks would "
+             "mirror; lapack (CRBA + dpotrf) runs dpotri on the upper factor and mirrors "
+             "nothing. The full inverse stays the headline above; this is reported apart.", "",
+             "| n | abi full (µs) | abi upper (µs) | upper / full | upper / store n² | "
+             "lapack upper / abi upper |", "|---|---|---|---|---|---|"]
+    cols = ("abi_full_us", "abi_upper_us", "upper_over_full", "upper_over_store",
+            "lapack_upper_over_abi_upper")
+    fmts = ("{:.1f}", "{:.1f}", "{:.2f}", "{:.2f}", "{:.1f}")
+    for i, nv in enumerate(g["n"][()]):
+        lines.append(f"| {int(nv)} | " + " | ".join(cell(fm, g[c][()][i])
+                                                     for c, fm in zip(cols, fmts)) + " |")
+    return lines
+
+
 def levels_section(f):
     """abi at every instruction-set level this CPU runs (serial chain, one thread)."""
     if "levels" not in f or "serial" not in f["levels"]:
@@ -277,6 +299,7 @@ def main():
         ratios_figure(f)
         lines.append("![ratios](figures/perf_ratios.png)")
         lines += parts_section(f)
+        lines += upper_section(f)
         lines += levels_section(f)
     lines += memory_section()
     with open(os.path.join(PAPER, "PERFORMANCE.md"), "w") as out:

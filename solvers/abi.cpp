@@ -25,6 +25,10 @@ void AbiSolver::inverse(MatrixOut Minv) {
   abiInverse<double>(*model_, *kin_, *art_, *ws_, Minv);
 }
 
+void AbiSolver::inverseUpper(MatrixOut Minv) {
+  abiInverse<double>(*model_, *kin_, *art_, *ws_, Minv, NoMark{}, true);
+}
+
 void AbiSolver::solve(MatrixIn R, MatrixOut X) {
   abiSolve<double>(*model_, *kin_, *art_, *ws_, R, X);
 }

@@ -301,10 +301,12 @@ MINV_FLATTEN void abiForward(const Model& model, const Kinematics<T>& kin,
 // 0 … b(last column), which include every row up to column c0 + w. By symmetry they give the
 // block's rows too, so each block writes its own strips of X and nothing is mirrored after:
 // the columns above the block's rows and the rows left of (and on) its diagonal tile.
+// With `upper` only the strips above the diagonal are written, and the diagonal tile's upper
+// triangle: M⁻¹'s upper triangle, half the stores.
 template <class T, int W, class Out, class Mark>
 MINV_FLATTEN void abiInverseBlock(const Model& model, const Kinematics<T>& kin,
                                   const Articulated<T>& art, AbiLanes<T, W>& ws, int c0, Out& X,
-                                  Mark& mark) {
+                                  Mark& mark, bool upper = false) {
   const int nv = model.nv(), width = std::min(W, nv - c0);
   const int last = model.dofBody(c0 + width - 1);
   // The unit impulses e_{c0+w}, one per lane, up to the roots; then Δq̇ of bodies 0 … last.
@@ -314,7 +316,7 @@ MINV_FLATTEN void abiInverseBlock(const Model& model, const Kinematics<T>& kin,
   T* x = X.data();
   abiBackward<T, W, true>(model, kin, art, ws, last, c0, width);
   mark("impulse propagation");
-  abiForward<T, W>(model, kin, art, ws, last, LaneRows<T>{x + c0, ld, c0, width});
+  abiForward<T, W>(model, kin, art, ws, last, LaneRows<T>{upper ? nullptr : x + c0, ld, c0, width});
   mark("velocity updates");
   // Columns c0 … above the diagonal tile: X(v, c0 + w), 8-row tiles through a buffer (lanes
   // to columns), then the rows of a last partial tile.
@@ -330,22 +332,27 @@ MINV_FLATTEN void abiInverseBlock(const Model& model, const Kinematics<T>& kin,
     for (int v = v0; v < c0; ++v) x[v + (c0 + w) * ld] = ws.u[v](w);
   // The diagonal tile: its upper triangle, mirrored so that X is exactly symmetric.
   for (int w = 0; w < width; ++w)
-    for (int v = c0; v <= c0 + w; ++v) x[v + (c0 + w) * ld] = x[c0 + w + v * ld] = ws.u[v](w);
+    for (int v = c0; v <= c0 + w; ++v) {
+      x[v + (c0 + w) * ld] = ws.u[v](w);
+      if (!upper) x[c0 + w + v * ld] = ws.u[v](w);
+    }
 }
 
 // Stages "impulse propagation" and "velocity updates" for all columns: Minv = M⁻¹, in blocks
-// of W columns (a last block of at most W/2 columns runs half as wide).
+// of W columns (a last block of at most W/2 columns runs half as wide); with `upper`, only its
+// upper triangle.
 template <class T, class Out, class Mark = NoMark>
 void abiInverse(const Model& model, const Kinematics<T>& kin, const Articulated<T>& art,
-                AbiWorkspace<T>& ws, Out& Minv, Mark&& mark = {}) {
+                AbiWorkspace<T>& ws, Out& Minv, Mark&& mark = {}, bool upper = false) {
   constexpr int W = kAbiLanes<T>;
   const int nv = model.nv(), blocks = (nv + W - 1) / W;
   const bool halfLast = W > 1 && nv - (blocks - 1) * W <= W / 2;
   auto block = [&](int b, int thread, auto& mk) {
     if (b == blocks - 1 && halfLast)
-      abiInverseBlock<T, AbiWorkspace<T>::kHalf>(model, kin, art, ws.half[thread], b * W, Minv, mk);
+      abiInverseBlock<T, AbiWorkspace<T>::kHalf>(model, kin, art, ws.half[thread], b * W, Minv, mk,
+                                                 upper);
     else
-      abiInverseBlock<T, W>(model, kin, art, ws.wide[thread], b * W, Minv, mk);
+      abiInverseBlock<T, W>(model, kin, art, ws.wide[thread], b * W, Minv, mk, upper);
   };
   if (ws.threads() == 1 || !std::is_same_v<std::decay_t<Mark>, NoMark>) {
     for (int b = 0; b < blocks; ++b) block(b, 0, mark);
@@ -443,6 +450,7 @@ class AbiSolver final : public Solver {
   void prepare(const Model& model) override;
   void configure(const Eigen::VectorXd& q) override;
   void inverse(MatrixOut Minv) override;
+  void inverseUpper(MatrixOut Minv) override;
   void solve(MatrixIn R, MatrixOut X) override;
   // The two sweeps of every full block of columns on one thread, writing nothing: the part of
   // inverse() that is arithmetic (bench_abi's parts).

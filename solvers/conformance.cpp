@@ -124,6 +124,14 @@ void checkCase(const SolverFactory& make, const ConformanceCase& c, ConformanceR
     add("lower triangle vs dense inverse",
         rel(lower, Eigen::MatrixXd(p.Xref.triangularView<Eigen::Lower>())), 2 * p.tol);
     add("symmetric", rel(X, X.transpose()), p.tol);
+    // The upper triangle alone (inverseUpper), the rest left unwritten, against the reference.
+    Eigen::MatrixXd U(n, n);
+    U.setConstant(nan);
+    s->inverseUpper(U);
+    add("inverseUpper vs dense inverse",
+        rel(Eigen::MatrixXd(U.triangularView<Eigen::Upper>()),
+            Eigen::MatrixXd(p.Xref.triangularView<Eigen::Upper>())),
+        2 * p.tol);
     add("solve(R) vs X R", rel(Y, X * p.R), p.tol);
     add("solve(r) one column", rel(Y1, X * p.R.leftCols(1)), p.tol);
     // A second configuration: the solver must recompute, not return a cached result.

@@ -16,6 +16,7 @@
 //   upper, lower   each triangle of X against Xref's    ≤ 2·tol   (a solver that computes one
 //                  triangle and mirrors it is checked on both, before and after its mirror)
 //   symmetric      ‖X − Xᵀ‖ / ‖X‖                       ≤ tol
+//   inverseUpper   its upper triangle against Xref's     ≤ 2·tol   (the lower part unread)
 //   solve          ‖solve(R) − X R‖ / ‖X R‖, R seeded with 11 columns (a full and a partial SIMD
 //                  block of abi's), and its first column alone            ≤ tol
 //   finite         X, solve(R) finite

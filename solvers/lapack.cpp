@@ -60,6 +60,14 @@ void LapackSolver::inverse(MatrixOut Minv) {
   Minv.triangularView<Eigen::StrictlyUpper>() = Minv.transpose();
 }
 
+void LapackSolver::inverseUpper(MatrixOut Minv) {
+  // Lᵀ is the upper Cholesky factor: M⁻¹ straight into the upper triangle, nothing mirrored.
+  Minv.triangularView<Eigen::Upper>() = M_.transpose();
+  const lapack_int n = static_cast<lapack_int>(Minv.rows());
+  const lapack_int ld = static_cast<lapack_int>(Minv.outerStride());
+  check(LAPACKE_dpotri(LAPACK_COL_MAJOR, 'U', n, Minv.data(), ld), "dpotri");
+}
+
 void LapackSolver::solve(MatrixIn R, MatrixOut X) {
   // X = L⁻ᵀ L⁻¹ R.
   X = R;

@@ -18,6 +18,7 @@ class LapackSolver final : public CrbaSolver {
   void setThreads(int n) override;
   int threads() const override { return threads_; }
   void inverse(MatrixOut Minv) override;
+  void inverseUpper(MatrixOut Minv) override;
   void solve(MatrixIn R, MatrixOut X) override;
 
  private:

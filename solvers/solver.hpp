@@ -40,6 +40,10 @@ class Solver {
   virtual void configure(const Eigen::VectorXd& q) = 0;
   // Minv (nv×nv) = M⁻¹, dense and symmetric; every entry is written.
   virtual void inverse(MatrixOut Minv) = 0;
+  // The upper triangle of M⁻¹ (diagonal included) into Minv's upper triangle, for callers that
+  // need only one (a symmetric consumer, the contact path); Minv's strictly lower part is left
+  // unspecified. By default the full inverse(); a solver that can skip the other half does.
+  virtual void inverseUpper(MatrixOut Minv) { inverse(Minv); }
   // X (nv×m) = M⁻¹ R for R (nv×m).
   virtual void solve(MatrixIn R, MatrixOut X) = 0;
 };
