@@ -4,12 +4,12 @@
 // per DOF) in world coordinates. Stage "isolated inertias": each body's spatial inertia I_i in
 // world coordinates, about the world origin. Parametrisation of q: see core/model.hpp.
 //
-// Origin::EachRoot keeps the world's axes but puts the origin at each tree's root joint (body
-// i's root's placement and a floating base's position are dropped). M and M⁻¹ do not depend
-// on where a tree stands, and world-frame products such as p × ω and m·c·cᵀ lose accuracy as
-// ε·(|p|/ℓ)² far from the origin (ℓ the tree's size: 1e-8 relative at 10 km for a 1 m robot),
-// so every solver uses it; the simulator, which needs positions in the world, does not. The
-// dropped translation is still computed, so flop counts are the same in both.
+// Origin::EachRoot keeps the world's axes but puts the origin at each tree's root joint (the
+// translation of a root's placement, or a floating base's position, is dropped). M and M⁻¹ do
+// not depend on where a tree stands, and world-frame products such as p × ω and m·c·cᵀ lose
+// accuracy as ε·(|p|/ℓ)² far from the origin (ℓ the tree's size: 1e-8 relative at 10 km for a
+// 1 m robot), so every solver uses it; the simulator, which needs positions in the world, does
+// not. The dropped translation is still computed, so flop counts are the same in both.
 // Cost: Θ(nb); no allocation after the Kinematics object is built.
 #pragma once
 

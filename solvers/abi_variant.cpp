@@ -17,4 +17,5 @@ void sweeps(minv::Solver& abi) {
 }  // namespace
 
 extern "C" __attribute__((visibility("default"))) const minv::AbiVariantApi minv_abi_variant = {
-    MINV_ABI_LEVEL, MINV_ABI_TARGET, MINV_COMPILED_ISA, minv::kAbiLanes<double>, make, sweeps};
+    minv::kAbiVariantVersion, MINV_ABI_LEVEL, MINV_ABI_TARGET, MINV_COMPILED_ISA,
+    minv::kAbiLanes<double>,  make,           sweeps};

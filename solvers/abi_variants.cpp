@@ -96,9 +96,9 @@ const AbiVariantApi& abiVariant(Isa isa) {
     throw std::runtime_error(std::string("abi: cannot load the ") + isaName(isa) +
                              " module: " + error);
   const auto* api = static_cast<const AbiVariantApi*>(dlsym(handle, kAbiVariantSymbol));
-  if (!api || std::string(api->level) != isaName(isa))
-    throw std::runtime_error("abi: " + moduleName(isa) + " exports no table of level " +
-                             isaName(isa));
+  if (!api || api->version != kAbiVariantVersion || std::string(api->level) != isaName(isa))
+    throw std::runtime_error("abi: " + moduleName(isa) + " is not this build's module of level " +
+                             isaName(isa) + " (a stale file from another build?)");
   loaded[isa] = api;
   return *api;
 }
@@ -121,7 +121,8 @@ std::string abiSummary() {
   } catch (const std::exception& e) {
     s += e.what();
   }
-  s += ", chosen from CPUID; MINV_ISA=";
+  const char* forced = std::getenv("MINV_ISA");
+  s += forced && *forced ? ", forced by MINV_ISA; MINV_ISA=" : ", chosen from CPUID; MINV_ISA=";
   std::string known;
   for (Isa l : abiLevels()) known += (known.empty() ? "" : "|") + std::string(isaName(l));
   return s + known + " forces one";

@@ -5,8 +5,9 @@
 // a module of its own, libminv_abi_<level>.so (solvers/abi_variant.cpp), whose symbols are
 // hidden and bound inside it (-fvisibility=hidden, -Bsymbolic), so its Eigen and kernel
 // instantiations never merge with another level's. A module is loaded (dlopen) only when its
-// level is used, and only if this CPU runs that level: nothing compiled for AVX-512 is ever
-// mapped on an AVX2 machine. Eigen's alignment is pinned by minv::core (EIGEN_MAX_ALIGN_BYTES
+// level is used (by a solver, or to name it in the registry's summary and the provenance), and
+// only if this CPU runs that level: nothing compiled for AVX-512 is ever mapped on an AVX2
+// machine. Eigen's alignment is pinned by minv::core (EIGEN_MAX_ALIGN_BYTES
 // = 64), so the Model and the caller's matrices have one layout at every level; a module
 // never resizes or frees a caller's matrix.
 //
@@ -24,8 +25,11 @@
 
 namespace minv {
 
-// What a level's module exports (symbol kAbiVariantSymbol).
+// What a level's module exports (symbol kAbiVariantSymbol). `version` must equal
+// kAbiVariantVersion: a module from another build of minv (a stale file) is refused.
+inline constexpr int kAbiVariantVersion = 2;
 struct AbiVariantApi {
+  int version;         // kAbiVariantVersion of the build that compiled it
   const char* level;   // isaName() of the level it was compiled for
   const char* target;  // its target flags ("-march=x86-64-v3 -mtune=generic")
   const char* widest;  // the widest extension the compiler used ("avx512f", "avx2+fma", …)

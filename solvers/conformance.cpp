@@ -152,6 +152,16 @@ void checkCase(const SolverFactory& make, const ConformanceCase& c, ConformanceR
       t->solve(p.R, Yt);
       add("2 threads: inverse", rel(p.M * Xt, I), p.tol);
       add("2 threads: symmetric", rel(Xt, Xt.transpose()), p.tol);
+      // The upper triangle alone on two threads, into a block of a larger matrix (a strided
+      // output whose lower part and border stay unwritten).
+      Eigen::MatrixXd big(n + 3, n + 2);
+      big.setConstant(nan);
+      Eigen::Ref<Eigen::MatrixXd> Ub = big.block(1, 1, n, n);
+      t->inverseUpper(Ub);
+      add("2 threads: inverseUpper into a block vs dense inverse",
+          rel(Eigen::MatrixXd(Ub.triangularView<Eigen::Upper>()),
+              Eigen::MatrixXd(p.Xref.triangularView<Eigen::Upper>())),
+          2 * p.tol);
       add("2 threads: |M solve(R) - R|", rel(p.M * Yt, p.R), p.tol);
     }
   } catch (const std::exception& e) {

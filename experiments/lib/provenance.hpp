@@ -11,7 +11,7 @@
 //                    they tell it ("family 0x19 model 0x11 stepping 1 (Zen 4)")
 //   cpu_extensions   the vector extensions present ("sse4.2 avx fma avx2 avx512f …")
 //   build_isa        the widest extension minv's own code was compiled for ("avx512f",
-//                    "avx2+fma", … "sse2 (x86-64 baseline)")
+//                    "avx2+fma", "avx", "sse4.2" (the default x86-64-v2 build), "sse2")
 //   abi_isa          the level of abi's kernels in use (solvers/abi_variants.hpp): level,
 //                    target flags, widest extension, lanes ("avx512 (-march=x86-64-v4 …)")
 //   abi_isa_levels   every level and whether it can be used here, or why not
