@@ -31,6 +31,13 @@ std::string moduleName(Isa isa) {
   return std::string("libminv_abi_") + isaName(isa) + ".so";
 }
 
+// The built levels as "baseline|avx2|avx512".
+std::string levelList() {
+  std::string out;
+  for (Isa l : abiLevels()) out += (out.empty() ? "" : "|") + std::string(isaName(l));
+  return out;
+}
+
 }  // namespace
 
 std::vector<Isa> abiLevels() {
@@ -63,11 +70,10 @@ bool abiLevelUsable(Isa isa, std::string* why) {
 Isa abiLevel() {
   if (const char* forced = std::getenv("MINV_ISA"); forced && *forced) {
     const std::optional<Isa> isa = isaFromName(forced);
-    std::string known;
-    for (Isa l : abiLevels()) known += (known.empty() ? "" : "|") + std::string(isaName(l));
     if (!isa)
       throw std::invalid_argument("MINV_ISA='" + std::string(forced) +
-                                  "' names no instruction-set level (this build: " + known + ")");
+                                  "' names no instruction-set level (this build: " + levelList() +
+                                  ")");
     std::string why;
     if (!abiLevelUsable(*isa, &why))
       throw std::invalid_argument("MINV_ISA=" + std::string(forced) + ": " + why);
@@ -123,9 +129,7 @@ std::string abiSummary() {
   }
   const char* forced = std::getenv("MINV_ISA");
   s += forced && *forced ? ", forced by MINV_ISA; MINV_ISA=" : ", chosen from CPUID; MINV_ISA=";
-  std::string known;
-  for (Isa l : abiLevels()) known += (known.empty() ? "" : "|") + std::string(isaName(l));
-  return s + known + " forces one";
+  return s + levelList() + " forces one";
 }
 
 }  // namespace minv
