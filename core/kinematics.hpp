@@ -66,9 +66,18 @@ Pose<T> jointPose(const Joint& j, const VecX<T>& q, int o) {
   const Vec3<T> a = j.axis.cast<T>();
   switch (j.type) {
     case JointType::Revolute: {
-      // Rodrigues: R = c·1 + s·ã + (1 − c)·a aᵀ.
+      // Rodrigues: R = c·1 + s·ã + (1 − c)·a aᵀ, entry by entry (the symmetric part once).
       const T c = cos(q(o)), s = sin(q(o));
-      J.R = c * Mat3<T>::Identity() + s * skew<T>(a) + (T(1) - c) * (a * a.transpose());
+      const Vec3<T> ta = (T(1) - c) * a, sa = s * a;
+      for (int j = 0; j < 3; ++j)
+        for (int i = j; i < 3; ++i) {
+          const T x = ta(i) * a(j);
+          J.R(i, j) = J.R(j, i) = x;
+        }
+      for (int i = 0; i < 3; ++i) J.R(i, i) += c;
+      J.R(0, 1) -= sa(2), J.R(1, 0) += sa(2);
+      J.R(0, 2) += sa(1), J.R(2, 0) -= sa(1);
+      J.R(1, 2) -= sa(0), J.R(2, 1) += sa(0);
       break;
     }
     case JointType::Prismatic:
@@ -157,7 +166,11 @@ void worldInertias(const Model& model, Kinematics<T>& kin, Mark&& mark = {}, int
     const Body& b = model.body(i);
     const Pose<T>& X = kin.X[i];
     const Vec3<T> c = X.p + X.R * b.com.cast<T>();
-    const Mat3<T> Ic = X.R * b.inertia.cast<T>() * X.R.transpose();
+    // R Ī Rᵀ: R Ī, then one triangle of (R Ī) Rᵀ; mcI reads that triangle only.
+    const Mat3<T> RI = X.R * b.inertia.cast<T>();
+    Mat3<T> Ic;
+    for (int j = 0; j < 3; ++j)
+      for (int r = j; r < 3; ++r) Ic(r, j) = RI.row(r).dot(X.R.row(j));
     mcI<T>(T(b.mass), c, Ic, kin.I[i]);
   };
   if (threads > 1 && std::is_same_v<std::decay_t<Mark>, NoMark>) {

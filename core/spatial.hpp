@@ -55,14 +55,27 @@ Mat6<T> crossF(const Vec6<T>& v) {
 }
 
 // Spatial inertia of a body of mass m, centre of mass c and rotational inertia Ī_c about c,
-// expressed about the origin of the frame c is given in (RBDA eq. 2.63).
+// expressed about the origin of the frame c is given in (RBDA eq. 2.63). With h = m c and
+// c̃ c̃ᵀ = |c|² 1 − c cᵀ: the top-left block is Ī_c + (hᵀc) 1 − h cᵀ (symmetric: 6 products),
+// the off-diagonal blocks are h̃ and h̃ᵀ. 12 mul, 12 add; reads Ī_c's lower triangle only.
 template <class T>
 void mcI(const T& m, const Vec3<T>& c, const Mat3<T>& Ic, Mat6<T>& I) {
-  const Mat3<T> C = skew<T>(c);
-  I.template topLeftCorner<3, 3>() = Ic + m * C * C.transpose();
-  I.template topRightCorner<3, 3>() = m * C;
-  I.template bottomLeftCorner<3, 3>() = m * C.transpose();
-  I.template bottomRightCorner<3, 3>() = m * Mat3<T>::Identity();
+  const Vec3<T> h = m * c;
+  const T hc = h.dot(c);
+  // Ī_c + m c̃ c̃ᵀ, one triangle then mirrored.
+  for (int j = 0; j < 3; ++j)
+    for (int i = j; i < 3; ++i) {
+      T x = Ic(i, j) - h(i) * c(j);
+      if (i == j) x += hc;
+      I(i, j) = x;
+      I(j, i) = x;
+    }
+  // m c̃, m c̃ᵀ, m 1.
+  const Mat3<T> H = skew<T>(h);
+  I.template topRightCorner<3, 3>() = H;
+  I.template bottomLeftCorner<3, 3>() = H.transpose();
+  I.template bottomRightCorner<3, 3>().setZero();
+  I.template bottomRightCorner<3, 3>().diagonal().setConstant(m);
 }
 template <class T>
 Mat6<T> mcI(const T& m, const Vec3<T>& c, const Mat3<T>& Ic) {
