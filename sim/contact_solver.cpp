@@ -64,15 +64,19 @@ namespace {
 void residualsOnLambda(const ContactProblem& p, const Eigen::VectorXd& vplus, ContactSolution& s) {
   const int nc = static_cast<int>(p.b.size()), k = p.k;
   const double inradius = std::cos(std::numbers::pi / k);
+  // The facet normals of the polygon μ fn conv{t_j}: at angles 2π(j + ½)/k.
+  std::vector<double> fc(k), fs(k);
+  for (int j = 0; j < k; ++j) {
+    const double th = 2 * std::numbers::pi * (j + 0.5) / k;
+    fc[j] = std::cos(th), fs[j] = std::sin(th);
+  }
   for (int c = 0; c < nc; ++c) {
     s.residuals.penetration = std::max(s.residuals.penetration, -(vplus(3 * c) + p.b(c)));
     const double fn = s.lambda(3 * c);
     double out = std::max(0.0, -fn);
-    for (int j = 0; j < k; ++j) {  // facet normals of the polygon μ fn conv{t_j}
-      const double th = 2 * std::numbers::pi * (j + 0.5) / k;
-      out = std::max(out, std::cos(th) * s.lambda(3 * c + 1) + std::sin(th) * s.lambda(3 * c + 2) -
-                              p.mu * fn * inradius);
-    }
+    for (int j = 0; j < k; ++j)
+      out = std::max(
+          out, fc[j] * s.lambda(3 * c + 1) + fs[j] * s.lambda(3 * c + 2) - p.mu * fn * inradius);
     s.residuals.cone = std::max(s.residuals.cone, out);
   }
   s.residuals.penetration = std::max(0.0, s.residuals.penetration);
@@ -105,10 +109,16 @@ ContactSolution solveMaxDissipation(const ContactProblem& p, const Eigen::Vector
   s.lambda.resize(3 * nc);
   ContactResiduals& r = s.residuals;
   if (nc == 0) return s;
-  // Diagonal blocks G_cc = Wᵀ A_cc W (k×k each, side by side); λ_c = W β_c.
+  // Diagonal blocks G_cc = Wᵀ A_cc W (k×k each, side by side), the reciprocals of their
+  // diagonals (0 where not positive: that generator is never moved); λ_c = W β_c.
   Eigen::MatrixXd Gd(k, m);
+  Eigen::VectorXd Rd(m);
   for (int c = 0; c < nc; ++c) {
     Gd.middleCols(k * c, k).noalias() = W.transpose() * (p.A.block<3, 3>(3 * c, 3 * c) * W).eval();
+    for (int j = 0; j < k; ++j) {
+      const double d = Gd(j, k * c + j);
+      Rd(k * c + j) = d > 0 ? 1 / d : 0.0;
+    }
     s.lambda.segment<3>(3 * c).noalias() = W * s.beta.segment(k * c, k);
   }
   // u = Aλ + v0: the contact velocities, kept up to date as λ changes.
@@ -128,7 +138,7 @@ ContactSolution solveMaxDissipation(const ContactProblem& p, const Eigen::Vector
   r.converged = false;
   std::vector<double> gcv(k), oldv(k);
   double *gc = gcv.data(), *old = oldv.data();
-  Eigen::Vector3d dl;
+  const int n3 = 3 * nc;
   for (int it = 1; it <= o.max_iterations; ++it) {
     // One block Gauss-Seidel sweep: contact by contact, its k generators by coordinate descent
     // on the local gradient (exact through G_cc), then one 3-column update of u.
@@ -141,9 +151,9 @@ ContactSolution solveMaxDissipation(const ContactProblem& p, const Eigen::Vector
       for (int sweep = 0; sweep < inner; ++sweep) {
         bool moved = false;
         for (int j = 0; j < k; ++j) {
-          const double d = G[k * j + j];
-          if (!(d > 0)) continue;
-          const double nb = std::max(0.0, bc[j] - gc[j] / d);
+          const double rd = Rd[k * c + j];
+          if (!(rd > 0)) continue;
+          const double nb = std::max(0.0, bc[j] - gc[j] * rd);
           const double delta = nb - bc[j];
           if (delta != 0) {
             bc[j] = nb;
@@ -155,10 +165,17 @@ ContactSolution solveMaxDissipation(const ContactProblem& p, const Eigen::Vector
         if (!moved) break;
       }
       if (!changed) continue;
-      dl.setZero();
-      for (int j = 0; j < k; ++j) dl += (bc[j] - old[j]) * W.col(j);
-      s.lambda.segment<3>(3 * c) += dl;
-      u.noalias() += p.A.middleCols<3>(3 * c) * dl;
+      // Δλ_c = W Δβ_c; u += A_{:,c} Δλ_c (three contiguous columns, one pass over u).
+      double d0 = 0, d1 = 0, d2 = 0;
+      for (int j = 0; j < k; ++j) {
+        const double db = bc[j] - old[j];
+        d0 += db * W(0, j), d1 += db * W(1, j), d2 += db * W(2, j);
+      }
+      s.lambda(3 * c) += d0, s.lambda(3 * c + 1) += d1, s.lambda(3 * c + 2) += d2;
+      const double* a0 = p.A.data() + static_cast<std::ptrdiff_t>(3 * c) * n3;
+      const double *a1 = a0 + n3, *a2 = a1 + n3;
+      double* uu = u.data();
+      for (int i = 0; i < n3; ++i) uu[i] += a0[i] * d0 + a1[i] * d1 + a2[i] * d2;
     }
     // No drift from the incremental updates.
     if (it % 64 == 0) {
