@@ -5,8 +5,9 @@ contact-inertia (the Θ(n + m²) contact-space inertia recursion), each split by
 when the file has it, mujoco-step (MuJoCo's own mj_step on the same centipede: one undivided
 total, drawn as one bar). Reads results/centipede.h5 (`minv simulate sweep`); the paper's y
 axis is the total time of its 1000-step run, so per-step means are scaled to 1000 steps (points
-whose run had fewer steps are extrapolated that way and drawn hollow). Skipped points
-(status "skipped") are left out."""
+whose run had fewer steps are extrapolated that way and drawn hollow). Points run on more than
+one thread (`--threads`, paths "<path>@<threads>") are drawn dotted in their path's colour. Skipped
+points (status "skipped") are left out."""
 import h5py
 import matplotlib.pyplot as plt
 import numpy as np
@@ -49,17 +50,25 @@ def load():
     return out, prov
 
 
+def threaded_paths(data):
+    """The points on more than one thread ("<path>@<threads>"), drawn in their path's colour
+    with a dotted line."""
+    colors = {p: c for p, c, _ in PATHS}
+    return [(p, colors.get(p.split("@")[0], "tab:gray"), ":d") for p in sorted(data) if "@" in p]
+
+
 def main():
     data, prov = load()
     fig, (ax, bx) = plt.subplots(1, 2, figsize=(12, 4.6))
-    for path, color, style in PATHS:
+    for path, color, style in PATHS + threaded_paths(data):
         rows = data.get(path, [])
         if not rows:
             continue
         legs = np.array([r["legs"] for r in rows])
         total = np.array([r["total"] for r in rows]) * 1000
         full = np.array([r["steps"] >= 100 for r in rows])
-        ax.plot(legs, total, style, color=color, label=path)
+        label = path if "@" not in path else "{}, {} threads".format(*path.split("@"))
+        ax.plot(legs, total, style, color=color, label=label)
         ax.plot(legs[full], total[full], "o", color=color)
         ax.plot(legs[~full], total[~full], "o", mfc="none", color=color)
     ax.set_xscale("log")

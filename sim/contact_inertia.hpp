@@ -56,7 +56,9 @@
 // forests, several directions on one body, directions on a (floating) root, joints of 1, 3 or
 // 6 DOFs. The workspace is built once per tree for up to `max_columns` directions; the kernel
 // does not allocate unless m exceeds that capacity (then it grows it once). Templated on the
-// scalar: the Counted instantiation counts the very code that runs on double.
+// scalar: the Counted instantiation counts the very code that runs on double. With threads > 1
+// the large pair blocks (the Θ(m²) part) are split by rows among OpenMP threads; the result is
+// the same bit for bit (every entry is computed by the same products in the same order).
 #pragma once
 
 #include <Eigen/Core>
@@ -78,6 +80,7 @@ struct ContactInertiaWorkspace {
   using RowsX6 = Eigen::Matrix<T, Eigen::Dynamic, 6>;
   static constexpr int kDirectMax = 6;  // pass-through: apply Pᵀ directly up to this many rows
   static constexpr int kTile = 64;      // scatter tile when directions arrive out of preorder
+  static constexpr int kParallelEntries = 16384;  // threads split pair blocks at least this big
 
   // Per tree: preorder of the bodies, each body's position in it, children (CSR, by index).
   std::vector<int> order, pre, child_start, children;
@@ -208,23 +211,42 @@ void composePropagator(const Kinematics<T>& kin, const Articulated<T>& art, int 
 
 // The pairs of position ranges X = [x0, x0 + nx) and Y = [y0, y0 + ny), disjoint or equal
 // (diag): A(P(X), P(Y)) = F_X Ω F_Yᵀ and its mirror, P the sorted position → input index.
+// With threads > 1, a block of at least kParallelEntries entries in preorder is split by rows
+// among OpenMP threads (each writes its rows and their mirror).
 template <class T>
 void pairBlock(ContactInertiaWorkspace<T>& ws, const Mat6<T>& Om, int x0, int nx, int y0, int ny,
-               bool diag, bool identity, MatX<T>& A) {
+               bool diag, bool identity, MatX<T>& A, int threads) {
   if (nx == 0 || ny == 0) return;
   // G = F_s Ω on the smaller side s; the block is F_big Gᵀ (big rows, small columns).
   if (ny > nx) std::swap(x0, y0), std::swap(nx, ny);
   auto G = ws.G.topRows(ny);
   G.noalias() = ws.F.middleRows(y0, ny) * Om;
+  if (identity && !diag) {
+    // Rows [r0, r0 + L) of the block and their mirror.
+    auto rows = [&](int r0, int L) {
+      auto B = A.block(x0 + r0, y0, L, ny);
+      B.noalias() = ws.F.middleRows(x0 + r0, L) * G.transpose();
+      A.block(y0, x0 + r0, ny, L) = B.transpose();
+    };
+    // Chunks of rows, the same on one thread or several (the same products, bit for bit).
+    constexpr int kChunk = 64;
+    const int chunks = (nx + kChunk - 1) / kChunk;
+    const bool split =
+        threads > 1 && chunks > 1 && nx * ny >= ContactInertiaWorkspace<T>::kParallelEntries;
+    auto chunk = [&](int q) { rows(q * kChunk, std::min(kChunk, nx - q * kChunk)); };
+    if (split) {
+#pragma omp parallel for schedule(static) num_threads(threads)
+      for (int q = 0; q < chunks; ++q) chunk(q);
+    } else {
+      for (int q = 0; q < chunks; ++q) chunk(q);
+    }
+    return;
+  }
   if (identity) {
     auto B = A.block(x0, y0, nx, ny);
     B.noalias() = ws.F.middleRows(x0, nx) * G.transpose();
-    if (!diag) {
-      A.block(y0, x0, ny, nx) = B.transpose();
-    } else {
-      for (int c = 1; c < nx; ++c)
-        for (int r = 0; r < c; ++r) B(r, c) = B(c, r);
-    }
+    for (int c = 1; c < nx; ++c)
+      for (int r = 0; r < c; ++r) B(r, c) = B(c, r);
     return;
   }
   // Out of preorder: tiles of the block, scattered to the input order.
@@ -249,7 +271,7 @@ void pairBlock(ContactInertiaWorkspace<T>& ws, const Mat6<T>& Om, int x0, int nx
 template <class T>
 void contactInertia(const Model& model, const Kinematics<T>& kin, const Articulated<T>& art,
                     const std::vector<int>& bodies, const std::vector<Vec6<T>>& wrenches,
-                    ContactInertiaWorkspace<T>& ws, MatX<T>& A) {
+                    ContactInertiaWorkspace<T>& ws, MatX<T>& A, int threads = 1) {
   const int nb = model.nb(), m = static_cast<int>(bodies.size());
   if (static_cast<int>(wrenches.size()) != m || A.rows() != m || A.cols() != m)
     throw std::invalid_argument("contactInertia: bodies, wrenches and A (m x m) disagree");
@@ -318,13 +340,13 @@ void contactInertia(const Model& model, const Kinematics<T>& kin, const Articula
     // Pairs meeting at a: own × own, own × children, each child × the later children.
     const int s = ws.start[a], e = s + ws.cnt[a], o = ws.own[a];
     const Mat6<T>& Om = ws.Omega[a];
-    detail::pairBlock(ws, Om, s, o, s, o, true, identity, A);
-    detail::pairBlock(ws, Om, s + o, e - s - o, s, o, false, identity, A);
+    detail::pairBlock(ws, Om, s, o, s, o, true, identity, A, threads);
+    detail::pairBlock(ws, Om, s + o, e - s - o, s, o, false, identity, A, threads);
     for (int q = ws.child_start[a]; q < ws.child_start[a + 1]; ++q) {
       const int c = ws.children[q];
       if (ws.cnt[c] == 0) continue;
       const int end = ws.start[c] + ws.cnt[c];
-      detail::pairBlock(ws, Om, ws.start[c], ws.cnt[c], end, e - end, false, identity, A);
+      detail::pairBlock(ws, Om, ws.start[c], ws.cnt[c], end, e - end, false, identity, A, threads);
     }
   }
 

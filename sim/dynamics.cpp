@@ -1,7 +1,10 @@
 #include "sim/dynamics.hpp"
 
+#include <omp.h>
+
 #include <Eigen/Geometry>
 #include <cmath>
+#include <stdexcept>
 
 namespace minv::sim {
 
@@ -91,17 +94,44 @@ std::vector<int> pathDofs(const Model& model, int body) {
   return dofs;
 }
 
+namespace {
+// Column c of the contact-space inertia: every body's ΔV for the unit impulse f_c at b_c
+// (scratch receives Δq̇, unused), read at each direction's body.
+void testImpulseColumn(const Model& model, const Kinematics<double>& kin,
+                       const Articulated<double>& art, ImpulseWorkspace& ws,
+                       const std::vector<int>& bodies, const std::vector<Vec6<double>>& wrenches,
+                       int c, Eigen::MatrixXd& A, Eigen::VectorXd& scratch) {
+  const int m = static_cast<int>(bodies.size());
+  testImpulseResponse<double>(model, kin, art, bodies[c], wrenches[c], scratch, ws);
+  for (int r = 0; r < m; ++r) A(r, c) = wrenches[r].dot(ws.dv.col(bodies[r]));
+}
+}  // namespace
+
 void testImpulses(const Model& model, const Kinematics<double>& kin, const Articulated<double>& art,
                   ImpulseWorkspace& ws, const std::vector<int>& bodies,
                   const std::vector<Vec6<double>>& wrenches, Eigen::MatrixXd& A,
                   Eigen::VectorXd& scratch) {
   const int m = static_cast<int>(bodies.size());
-  for (int c = 0; c < m; ++c) {
-    // Every body's ΔV for the unit impulse f_c at b_c (scratch receives Δq̇, unused).
-    testImpulseResponse<double>(model, kin, art, bodies[c], wrenches[c], scratch, ws);
-    for (int r = 0; r < m; ++r) A(r, c) = wrenches[r].dot(ws.dv.col(bodies[r]));
-  }
+  for (int c = 0; c < m; ++c)
+    testImpulseColumn(model, kin, art, ws, bodies, wrenches, c, A, scratch);
   // Symmetric up to rounding; make it exactly so.
+  A = (0.5 * (A + A.transpose())).eval();
+}
+
+void testImpulses(const Model& model, const Kinematics<double>& kin, const Articulated<double>& art,
+                  std::vector<ImpulseWorkspace>& ws, const std::vector<int>& bodies,
+                  const std::vector<Vec6<double>>& wrenches, Eigen::MatrixXd& A,
+                  std::vector<Eigen::VectorXd>& scratch) {
+  const int m = static_cast<int>(bodies.size()), threads = static_cast<int>(ws.size());
+  if (threads < 1 || scratch.size() != ws.size())
+    throw std::invalid_argument("testImpulses: one workspace and one scratch per thread");
+#pragma omp parallel num_threads(threads)
+  {
+    const int t = omp_get_thread_num();
+#pragma omp for schedule(dynamic, 4)
+    for (int c = 0; c < m; ++c)
+      testImpulseColumn(model, kin, art, ws[t], bodies, wrenches, c, A, scratch[t]);
+  }
   A = (0.5 * (A + A.transpose())).eval();
 }
 

@@ -78,6 +78,13 @@ void testImpulses(const Model& model, const Kinematics<double>& kin, const Artic
                   const std::vector<Vec6<double>>& wrenches, Eigen::MatrixXd& A,
                   Eigen::VectorXd& scratch);
 
+// The same with the columns shared among ws.size() OpenMP threads, ws[t] and scratch[t]
+// (nv) thread t's own.
+void testImpulses(const Model& model, const Kinematics<double>& kin, const Articulated<double>& art,
+                  std::vector<ImpulseWorkspace>& ws, const std::vector<int>& bodies,
+                  const std::vector<Vec6<double>>& wrenches, Eigen::MatrixXd& A,
+                  std::vector<Eigen::VectorXd>& scratch);
+
 // dqd = M⁻¹ Σ_c J_c λ_c for impulses λ_c along wrenches f_c at bodies b_c.
 void applyImpulses(const Model& model, const Kinematics<double>& kin,
                    const Articulated<double>& art, ImpulseWorkspace& ws,

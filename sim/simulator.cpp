@@ -31,8 +31,10 @@ Simulator::Simulator(const Model& model, std::vector<ContactPoint> points, SimOp
       aba_(model),
       abi_(model),
       cia_(model, 3 * static_cast<int>(points_.size())) {
+  if (o_.threads < 1) throw std::invalid_argument("threads must be at least 1");
   if (o_.path != kTestImpulsePath && o_.path != kContactInertiaPath) {
     solver_ = makeSolver(o_.path);  // throws for an unknown name
+    solver_->setThreads(o_.threads);
     std::string why;
     if (!solver_->supports(model_, &why))
       throw std::invalid_argument("solver '" + o_.path + "' does not support this model: " + why);
@@ -47,6 +49,10 @@ Simulator::Simulator(const Model& model, std::vector<ContactPoint> points, SimOp
   q_ = model_.neutral();
   v_ = tau_ = qdd_ = vstar_ = dv_ = scratch_ = Eigen::VectorXd::Zero(nv);
   warm_.assign(points_.size(), Eigen::VectorXd());
+  if (o_.path == kTestImpulsePath && o_.threads > 1) {
+    column_ws_.assign(o_.threads, ImpulseWorkspace(model_));
+    column_scratch_.assign(o_.threads, Eigen::VectorXd::Zero(nv));
+  }
 }
 
 void Simulator::setState(const Eigen::VectorXd& q, const Eigen::VectorXd& v) {
@@ -56,6 +62,10 @@ void Simulator::setState(const Eigen::VectorXd& q, const Eigen::VectorXd& v) {
   v_ = v;
 }
 
+// Kinematics is split among threads only from this many bodies: below, the per-body work
+// (≈ 50 ns) does not pay for the region's fork and barriers.
+constexpr int kParallelBodies = 1024;
+
 void Simulator::step() {
   const double h = o_.dt;
   const int k = o_.friction_dirs;
@@ -63,7 +73,7 @@ void Simulator::step() {
   Clock::time_point t0 = Clock::now();
 
   // dynamics: v* = v + h·ABA(q, v, τ).
-  computeKinematics<double>(model_, q_, kin_);
+  computeKinematics<double>(model_, q_, kin_, model_.nb() >= kParallelBodies ? o_.threads : 1);
   articulatedInertias<double>(model_, kin_, art_);
   tau_.setZero();
   if (controller_) controller_(t_, q_, v_, tau_);
@@ -123,7 +133,9 @@ void Simulator::step() {
     Eigen::MatrixXd& A = prob_.A;
     A.resize(m, m);
     if (o_.path == kContactInertiaPath) {
-      contactInertia<double>(model_, kin_, art_, bodies, wrenches, cia_, A);
+      contactInertia<double>(model_, kin_, art_, bodies, wrenches, cia_, A, o_.threads);
+    } else if (!solver_ && o_.threads > 1) {
+      testImpulses(model_, kin_, art_, column_ws_, bodies, wrenches, A, column_scratch_);
     } else if (!solver_) {
       testImpulses(model_, kin_, art_, abi_, bodies, wrenches, A, scratch_);
     } else {
@@ -137,6 +149,7 @@ void Simulator::step() {
       // Xᵀ stored so that those are contiguous axpys. Θ(m² · depth), not Θ(m² · nv).
       Xt_ = X_.transpose();
       A.setZero();
+#pragma omp parallel for schedule(static) num_threads(o_.threads) if (o_.threads > 1)
       for (int r = 0; r < m; ++r)
         for (int i = bodies[r]; i >= 0; i = model_.parent(i))
           for (int d = model_.vIdx(i); d < model_.vIdx(i) + model_.nvOf(i); ++d)

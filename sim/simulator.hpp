@@ -58,6 +58,10 @@ struct SimOptions {
   double erp = 0.2;
   std::string path = "abi";
   ContactSolverOptions contact;
+  // OpenMP threads of the stages that split (kinematics, the contact-space matrices: the
+  // solver's own threads, test impulses by column, the contact-inertia pair blocks by rows);
+  // the articulated pass, ABA, the contact solve and the update stay on one.
+  int threads = 1;
 };
 
 struct StepTimes {
@@ -112,6 +116,8 @@ class Simulator {
   Articulated<double> art_;
   AbaWorkspace aba_;
   ImpulseWorkspace abi_;
+  std::vector<ImpulseWorkspace> column_ws_;  // test impulses: one workspace per thread
+  std::vector<Eigen::VectorXd> column_scratch_;
   ContactInertiaWorkspace<double> cia_;
   Eigen::VectorXd q_, v_, tau_, qdd_, vstar_, dv_, scratch_, lambda_, warm_beta_;
   Eigen::MatrixXd J_, X_, Xt_;

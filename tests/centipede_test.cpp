@@ -89,6 +89,38 @@ TEST(CentipedeCli, SimulateErrorsAreOneLine) {
   out = run("simulate centipede --segments 3 --dt -1 --out " + path, &status);
   EXPECT_EQ(status, 2);
   EXPECT_FALSE(std::filesystem::exists(path));
+  out = run("simulate centipede --segments 3 --threads 0 --out " + path, &status);
+  EXPECT_EQ(status, 2);
+  EXPECT_NE(out.find("--threads must be at least 1"), std::string::npos) << out;
+  EXPECT_FALSE(std::filesystem::exists(path));
+}
+
+// The net displacement line of a short walk.
+std::string displacement(const std::string& args) {
+  int status = 0;
+  const std::string out = run("simulate centipede --segments 4 --steps 400 " + args, &status);
+  EXPECT_EQ(status, 0) << out;
+  const auto at = out.find("net displacement:");
+  return at == std::string::npos ? out : out.substr(at);
+}
+
+// Two threads split only work whose result does not depend on the split (the contact-inertia
+// pair blocks by rows, the test-impulse columns): the same walk to the last printed digit.
+TEST(CentipedeCli, TwoThreadsWalkTheSame) {
+  for (const char* path : {"contact-inertia", "test-impulse"}) {
+    const std::string solver = std::string("--dt 1e-3 --solver ") + path;  // moves millimetres
+    EXPECT_EQ(displacement(solver + " --threads 2"), displacement(solver)) << path;
+  }
+  // A sweep names its points on more than one thread <path>@<threads>.
+  const std::string path = (std::filesystem::temp_directory_path() / "minv_sweep_t2.h5").string();
+  std::filesystem::remove(path);
+  int status = 0;
+  const std::string out = run(
+      "simulate sweep --segments 2 --steps 3 --solvers contact-inertia --threads 2 --out " + path,
+      &status);
+  EXPECT_EQ(status, 0) << out;
+  EXPECT_NE(out.find("contact-inertia@2"), std::string::npos) << out;
+  std::filesystem::remove(path);
 }
 
 }  // namespace

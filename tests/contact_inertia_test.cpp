@@ -80,13 +80,13 @@ Eigen::MatrixXd denseReference(const Model& model, const Eigen::VectorXd& q,
 
 // The recursion's A for the contacts at q.
 Eigen::MatrixXd recursion(const Model& model, const Kinematics<double>& kin, const Contacts& c,
-                          int capacity = 0) {
+                          int capacity = 0, int threads = 1) {
   Articulated<double> art(model);
   articulatedInertias<double>(model, kin, art);
   ContactInertiaWorkspace<double> ws(model, capacity);
   Eigen::MatrixXd A(c.m(), c.m());
   A.setConstant(std::nan(""));  // every entry must be written
-  contactInertia<double>(model, kin, art, c.bodies, c.wrenches, ws, A);
+  contactInertia<double>(model, kin, art, c.bodies, c.wrenches, ws, A, threads);
   return A;
 }
 
@@ -108,6 +108,16 @@ double check(const Model& model, const Eigen::VectorXd& q, const Contacts& c,
   return err;
 }
 
+// A point contact at every leg tip of the centipede posed by kin.
+Contacts tipContacts(const Centipede& cp, const Kinematics<double>& kin) {
+  Contacts c;
+  for (int l = 0; l < cp.legs(); ++l) {
+    const Pose<double>& X = kin.X[cp.lower_body[l]];
+    c.point(cp.lower_body[l], X.p + X.R * cp.tip);
+  }
+  return c;
+}
+
 // Every tip in contact at a random configuration, plus random wrenches on random bodies.
 void centipedeCase(SegmentJoint joint, int segments, std::uint64_t seed) {
   const Centipede cp = makeCentipede({.segments = segments, .segment_joint = joint});
@@ -115,15 +125,25 @@ void centipedeCase(SegmentJoint joint, int segments, std::uint64_t seed) {
   const Eigen::VectorXd q = randomConfiguration(m, seed);
   Kinematics<double> kin(m);
   computeKinematics<double>(m, q, kin);
-  Contacts c;
-  for (int l = 0; l < cp.legs(); ++l) {
-    const Pose<double>& X = kin.X[cp.lower_body[l]];
-    c.point(cp.lower_body[l], X.p + X.R * cp.tip);
-  }
+  Contacts c = tipContacts(cp, kin);
   Rng rng(seed);
   randomPoints(c, kin, 4, rng);
   check(m, q, c,
         std::string("centipede ") + segmentJointName(joint) + " S=" + std::to_string(segments));
+}
+
+// Two threads split the large pair blocks by rows: the same matrix bit for bit, and the
+// reference's within 1e-10. S = 40: 240 tip directions, root blocks over 16384 entries.
+TEST(ContactInertia, TwoThreads) {
+  const Centipede cp = makeCentipede({.segments = 40});
+  const Model& m = cp.model;
+  const Eigen::VectorXd q = randomConfiguration(m, 41);
+  Kinematics<double> kin(m);
+  computeKinematics<double>(m, q, kin);
+  const Contacts c = tipContacts(cp, kin);
+  const Eigen::MatrixXd one = recursion(m, kin, c), two = recursion(m, kin, c, 0, 2);
+  EXPECT_TRUE(two == one) << "two threads changed A";
+  EXPECT_LT(relativeError(two, denseReference(m, q, kin, c)), 1e-10);
 }
 
 TEST(ContactInertia, CentipedeYaw) {

@@ -151,6 +151,13 @@ TEST(SimDynamics, TestImpulsesEqualJtMinvJ) {
   Eigen::VectorXd scratch(m.nv());
   testImpulses(m, kin, art, ws, bodies, wrenches, A, scratch);
   EXPECT_LT((A - ref).norm(), 1e-10 * ref.norm());
+  // The columns on two threads, each with its own workspace: the same matrix.
+  std::vector<ImpulseWorkspace> wss(2, ImpulseWorkspace(m));
+  std::vector<Eigen::VectorXd> scratches(2, Eigen::VectorXd(m.nv()));
+  Eigen::MatrixXd A2 = Eigen::MatrixXd::Constant(mm, mm, std::nan(""));
+  testImpulses(m, kin, art, wss, bodies, wrenches, A2, scratches);
+  EXPECT_LT((A2 - ref).norm(), 1e-10 * ref.norm());
+  EXPECT_TRUE(A2 == A) << "two threads changed the test-impulse matrix";
   // And one combined impulse sweep gives M⁻¹ J λ.
   const Eigen::VectorXd lambda = randomVector(mm, 8);
   Eigen::VectorXd dqd(m.nv());

@@ -121,6 +121,9 @@ CentipedeRunResult runCentipede(const CentipedeRunOptions& o, std::ostream& log,
   const bool mujoco = o.solver == kMujocoStepPath;
   if (mujoco && !haveMujocoStep())
     throw std::invalid_argument("path mujoco-step needs MuJoCo, and this build has none");
+  if (o.threads < 1) throw std::invalid_argument("--threads must be at least 1");
+  if (mujoco && o.threads != 1)
+    throw std::invalid_argument("path mujoco-step runs MuJoCo 2.2's mj_step, which has one thread");
   if (mujoco && o.friction_dirs != 4)
     throw std::invalid_argument("path mujoco-step has MuJoCo's pyramidal cone of 4 directions");
   CentipedeOptions co;
@@ -133,6 +136,7 @@ CentipedeRunResult runCentipede(const CentipedeRunOptions& o, std::ostream& log,
   so.mu = o.mu;
   so.friction_dirs = o.friction_dirs;
   so.path = o.solver;
+  so.threads = o.threads;
   std::unique_ptr<Walker> sim;
   if (!mujoco) sim = std::make_unique<OurWalker>(c, so);
 #ifdef MINV_HAVE_MUJOCO
@@ -230,6 +234,7 @@ CentipedeRunResult runCentipede(const CentipedeRunOptions& o, std::ostream& log,
     h5->setAttribute(g, "steps", o.steps);
     h5->setAttribute(g, "dt", o.dt);
     h5->setAttribute(g, "solver", o.solver);
+    h5->setAttribute(g, "threads", o.threads);
     h5->setAttribute(g, "mu", o.mu);
     h5->setAttribute(g, "friction_dirs", o.friction_dirs);
     sim->writeAttributes(*h5, g);
@@ -270,7 +275,12 @@ CentipedeRunResult runCentipede(const CentipedeRunOptions& o, std::ostream& log,
   return r;
 }
 
+std::string sweepPointPath(const std::string& solver, int threads) {
+  return threads == 1 ? solver : solver + "@" + std::to_string(threads);
+}
+
 void runCentipedeSweep(const CentipedeSweepOptions& o, std::ostream& log) {
+  if (o.threads < 1) throw std::invalid_argument("--threads must be at least 1");
   if (o.segments.empty() || o.solvers.empty())
     throw std::invalid_argument("the sweep needs segments and solvers");
   std::vector<std::string> known = simulationPaths();
@@ -290,7 +300,7 @@ void runCentipedeSweep(const CentipedeSweepOptions& o, std::ostream& log) {
   h5.flush();
   for (int S : o.segments)
     for (const std::string& solver : o.solvers) {
-      const std::string name = "S" + std::to_string(S) + "/" + solver;
+      const std::string name = "S" + std::to_string(S) + "/" + sweepPointPath(solver, o.threads);
       if (h5.hasGroup(name)) {
         log << "# " << name << ": done already, skipped\n";
         continue;
@@ -300,6 +310,7 @@ void runCentipedeSweep(const CentipedeSweepOptions& o, std::ostream& log) {
       ro.steps = o.steps;
       ro.dt = o.dt;
       ro.solver = solver;
+      ro.threads = o.threads;
       ro.progress_lines = 2;
       h5.createGroup("S" + std::to_string(S));
       const std::string g = h5.beginPoint(name);
@@ -332,9 +343,9 @@ void runCentipedeSweep(const CentipedeSweepOptions& o, std::ostream& log) {
       std::snprintf(buf, sizeof buf,
                     "S=%-4d nv=%-5d %-13s total %8.3f s  dyn %7.3f  coll %6.3f  matrices %8.3f  "
                     "solve %7.3f  update %6.3f  (%.3f ms/step, %.1f contacts)\n",
-                    S, r.nv, solver.c_str(), r.time_total, r.times.dynamics, r.times.collision,
-                    r.times.matrices, r.times.solve, r.times.update, 1e3 * r.time_total / o.steps,
-                    r.mean_contacts);
+                    S, r.nv, sweepPointPath(solver, o.threads).c_str(), r.time_total,
+                    r.times.dynamics, r.times.collision, r.times.matrices, r.times.solve,
+                    r.times.update, 1e3 * r.time_total / o.steps, r.mean_contacts);
       log << buf;
       log.flush();
     }

@@ -14,7 +14,7 @@
 //                        reason), and the sweep goes on; every other point has status "ok".
 //
 // Layout of a run (attributes of its group): segments, segment_joint, nv, nq, legs, steps, dt,
-// solver, mu, friction_dirs, engine ("minv" or "mujoco"), time_<component> (seconds summed
+// solver, threads, mu, friction_dirs, engine ("minv" or "mujoco"), time_<component> (seconds summed
 // over the run; components dynamics, collision, matrices, solve, update; all 0 for
 // mujoco-step), time_total (their sum; for mujoco-step the mj_step calls alone, timed with
 // steady_clock), mean_contacts (for mujoco-step MuJoCo's ncon), max_penetration, max_cone,
@@ -44,6 +44,7 @@ struct CentipedeRunOptions {
   std::string solver = "abi";
   double mu = 0.8;
   int friction_dirs = 4;
+  int threads = 1;          // SimOptions::threads (mujoco-step: 1 only)
   int frames = 0;           // trajectory frames to record (0: none)
   int progress_lines = 10;  // progress lines on the log (0: none)
 };
@@ -68,10 +69,15 @@ struct CentipedeSweepOptions {
   std::vector<std::string> solvers{"abi", "lapack", "ltdl", kTestImpulsePath, kContactInertiaPath};
   int steps = 100;
   double dt = 1e-5;
+  int threads = 1;
   std::string out;
 };
 
-// Points are groups "S<segments>/<solver>"; the root holds the provenance and the options.
+// A sweep point's path name: the solver, with "@<threads>" when it ran on more than one.
+std::string sweepPointPath(const std::string& solver, int threads);
+
+// Points are groups "S<segments>/<solver>" (on one thread) or "S<segments>/<solver>@<threads>";
+// the root holds the provenance and the options.
 void runCentipedeSweep(const CentipedeSweepOptions& options, std::ostream& log);
 
 }  // namespace minv::sim

@@ -9,11 +9,13 @@
 //   minv generate --topology centipede --segments S [--segment-joint yaw|spherical] --out FILE
 //   minv simulate centipede [--segments S] [--steps K] [--dt H]
 //                           [--solver NAME|test-impulse|contact-inertia|mujoco-step]
-//                 [--frames F] [--segment-joint yaw|spherical] [--out FILE.h5]   (sim/)
+//                 [--threads T] [--frames F] [--segment-joint yaw|spherical]
+//                 [--out FILE.h5]   (sim/)
 //   minv simulate sweep [--segments 5,10,20,40]
 //                       [--solvers abi,lapack,ltdl,test-impulse,contact-inertia]
-//                 [--steps K] [--dt H] --out FILE.h5   (Figure 4; appended to and resumed;
-//                 mujoco-step is a path too, not among the defaults)
+//                 [--steps K] [--dt H] [--threads T] --out FILE.h5   (Figure 4; appended to
+//                 and resumed; mujoco-step is a path too, not among the defaults; with T > 1
+//                 the points are named <path>@T)
 //   minv solvers
 //   minv check [--solver NAME|all] [--max-n N]   (solvers/conformance.hpp; exit 1 if a check
 //              fails)
@@ -621,6 +623,9 @@ int runCli(int argc, char** argv, const std::string& program) {
       ->capture_default_str();
   scen->add_option("--segment-joint", sm.run.segment_joint, "yaw | spherical")
       ->capture_default_str();
+  scen->add_option("--threads", sm.run.threads,
+                   "OpenMP threads of the contact-space matrices and kinematics (mujoco-step: 1)")
+      ->capture_default_str();
   scen->add_option("--frames", sm.run.frames, "Trajectory frames to save")->capture_default_str();
   scen->add_option("--out", sm.out, "Output HDF5 file (optional)");
   CLI::App* ssw = simc->add_subcommand("sweep", "Figure 4: time per step vs segments and solver");
@@ -633,6 +638,9 @@ int runCli(int argc, char** argv, const std::string& program) {
       ->capture_default_str();
   ssw->add_option("--steps", sm.sweep.steps, "Time steps per run")->capture_default_str();
   ssw->add_option("--dt", sm.sweep.dt, "Step size (s)")->capture_default_str();
+  ssw->add_option("--threads", sm.sweep.threads,
+                  "OpenMP threads of every path; points > 1 are named <path>@<threads>")
+      ->capture_default_str();
   ssw->add_option("--out", sm.sweep.out, "Output HDF5 file (appended to and resumed)")->required();
 
   // An unknown subcommand word (CLI11 would only say that one is required).
