@@ -85,10 +85,11 @@ void Simulator::step() {
   // contact would only receive the model's spurious "push-away" impulses, see
   // sim/contact_solver.hpp); their unit wrenches (n, t1, t2), velocities and bias.
   active_.clear();
-  std::vector<int> bodies;
-  std::vector<Vec6<double>> wrenches;
-  std::vector<double> bias;
-  std::vector<double> vel;
+  std::vector<int>& bodies = bodies_;
+  std::vector<Vec6<double>>& wrenches = wrenches_;
+  std::vector<double>& bias = bias_;
+  std::vector<double>& vel = vel_;
+  bodies.clear(), wrenches.clear(), bias.clear(), vel.clear();
   bool velocities = false;
   for (int c = 0; c < static_cast<int>(points_.size()); ++c) {
     const int b = points_[c].body;

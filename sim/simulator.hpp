@@ -124,6 +124,11 @@ class Simulator {
   ContactProblem prob_;                // A is built in place here
   std::vector<Eigen::VectorXd> warm_;  // per contact point, k generator weights
   std::vector<int> active_;
+  // This step's contact directions (3 per active contact): body, unit wrench, velocity; the
+  // normal bias per contact. Members so that their capacity is kept from step to step.
+  std::vector<int> bodies_;
+  std::vector<Vec6<double>> wrenches_;
+  std::vector<double> vel_, bias_;
   ContactResiduals residuals_;
   StepTimes last_, total_;
   double t_ = 0;
