@@ -8,7 +8,9 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cctype>
 #include <csignal>
+#include <cstdio>
 #include <filesystem>
 #include <regex>
 
@@ -103,6 +105,7 @@ T readAttr(const File& f, const std::string& obj, const std::string& name, hid_t
 std::string readStringAttr(const File& f, const std::string& obj, const std::string& name) {
   const hid_t type = H5Tcopy(H5T_C_S1);
   H5Tset_size(type, H5T_VARIABLE);
+  H5Tset_cset(type, H5T_CSET_UTF8);  // as the writer stores them
   char* raw = readAttr<char*>(f, obj, name, type);
   std::string s = raw ? raw : "";
   H5free_memory(raw);
@@ -345,6 +348,22 @@ TEST(H5Provenance, WritesAllAttributes) {
     EXPECT_GT(readAttr<std::int64_t>(f, obj, "cpu_cores", H5T_NATIVE_INT64), 0);
     EXPECT_GT(readAttr<std::int64_t>(f, obj, "blas_threads", H5T_NATIVE_INT64), 0);
     EXPECT_GT(readAttr<std::int64_t>(f, obj, "omp_max_threads", H5T_NATIVE_INT64), 0);
+  }
+  // The commit is the source tree's HEAD at build time, not at configure time (the build
+  // has just run; a tree with edits since that commit is marked -dirty).
+  const std::string sha = collectProvenance().git_sha;
+  std::string head;
+  if (FILE* p = popen(
+          ("git -C " + std::string(MINV_SOURCE_DIR) + " rev-parse --short=12 HEAD 2>/dev/null")
+              .c_str(),
+          "r")) {
+    char buf[64] = {};
+    if (std::fgets(buf, sizeof buf, p)) head = buf;
+    pclose(p);
+    while (!head.empty() && std::isspace(static_cast<unsigned char>(head.back()))) head.pop_back();
+  }
+  if (!head.empty()) {
+    EXPECT_EQ(sha.substr(0, head.size()), head) << "stale commit in provenance";
   }
   const std::string line = provenanceSummary();
   EXPECT_EQ(line.find('\n'), std::string::npos);

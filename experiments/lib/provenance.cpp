@@ -14,6 +14,10 @@
 #include "solvers/abi_variants.hpp"
 #include "solvers/openblas.hpp"
 
+// The commit the sources were built from, written at build time by cmake/git_sha.cmake.
+#if __has_include("minv_git_sha.h")
+#include "minv_git_sha.h"
+#endif
 #ifndef MINV_GIT_SHA
 #define MINV_GIT_SHA "unknown"
 #endif
