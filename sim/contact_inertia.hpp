@@ -181,15 +181,15 @@ void applyPropagator(const Kinematics<T>& kin, const Articulated<T>& art,
                      ContactInertiaWorkspace<T>& ws, int v, int k, int r0, int L) {
   auto Fr = ws.F.middleRows(r0, L);
   auto t = ws.Tk.topLeftCorner(L, k);
-  t.noalias() = Fr * kin.S.middleCols(v, k);
-  Fr.noalias() -= t * art.UDinv.middleCols(v, k).transpose();
+  t.noalias() = Fr.lazyProduct(kin.S.middleCols(v, k));
+  Fr.noalias() -= t.lazyProduct(art.UDinv.middleCols(v, k).transpose());
 }
 
 // f ← Φ f for the rows [r0, r0 + L) of F.
 template <class T>
 void applyComposite(ContactInertiaWorkspace<T>& ws, const Mat6<T>& Phi, int r0, int L) {
   auto t = ws.Tk.topRows(L);
-  t.noalias() = ws.F.middleRows(r0, L) * Phi.transpose();
+  t.noalias() = ws.F.middleRows(r0, L).lazyProduct(Phi.transpose());
   ws.F.middleRows(r0, L) = t;
 }
 
@@ -220,12 +220,12 @@ void pairBlock(ContactInertiaWorkspace<T>& ws, const Mat6<T>& Om, int x0, int nx
   // G = F_s Ω on the smaller side s; the block is F_big Gᵀ (big rows, small columns).
   if (ny > nx) std::swap(x0, y0), std::swap(nx, ny);
   auto G = ws.G.topRows(ny);
-  G.noalias() = ws.F.middleRows(y0, ny) * Om;
+  G.noalias() = ws.F.middleRows(y0, ny).lazyProduct(Om);
   if (identity && !diag) {
     // Rows [r0, r0 + L) of the block and their mirror.
     auto rows = [&](int r0, int L) {
       auto B = A.block(x0 + r0, y0, L, ny);
-      B.noalias() = ws.F.middleRows(x0 + r0, L) * G.transpose();
+      B.noalias() = ws.F.middleRows(x0 + r0, L).lazyProduct(G.transpose());
       A.block(y0, x0 + r0, ny, L) = B.transpose();
     };
     // Chunks of rows, the same on one thread or several (the same products, bit for bit).
@@ -244,7 +244,7 @@ void pairBlock(ContactInertiaWorkspace<T>& ws, const Mat6<T>& Om, int x0, int nx
   }
   if (identity) {
     auto B = A.block(x0, y0, nx, ny);
-    B.noalias() = ws.F.middleRows(x0, nx) * G.transpose();
+    B.noalias() = ws.F.middleRows(x0, nx).lazyProduct(G.transpose());
     for (int c = 1; c < nx; ++c)
       for (int r = 0; r < c; ++r) B(r, c) = B(c, r);
     return;
@@ -255,7 +255,7 @@ void pairBlock(ContactInertiaWorkspace<T>& ws, const Mat6<T>& Om, int x0, int nx
     for (int i0 = diag ? j0 : 0; i0 < nx; i0 += tl) {
       const int ti = std::min(tl, nx - i0), tj = std::min(tl, ny - j0);
       auto tile = ws.tile.topLeftCorner(ti, tj);
-      tile.noalias() = ws.F.middleRows(x0 + i0, ti) * G.middleRows(j0, tj).transpose();
+      tile.noalias() = ws.F.middleRows(x0 + i0, ti).lazyProduct(G.middleRows(j0, tj).transpose());
       for (int j = 0; j < tj; ++j)
         for (int i = diag && i0 == j0 ? j : 0; i < ti; ++i) {
           const int r = ws.perm[x0 + i0 + i], c = ws.perm[y0 + j0 + j];
