@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cmath>
+#include <type_traits>
 #include <vector>
 
 #include "core/kinematics.hpp"
@@ -31,18 +32,34 @@ struct Articulated {
   }
 };
 
-// Inverse of a small symmetric positive-definite k×k matrix (k ≤ 6) by Cholesky, D = L Lᵀ.
-template <class T>
-void spdInverse(const MatK<T>& D, MatK<T>& Dinv) {
+// Per-joint steps are compiled per joint size, so that their products are fixed-size: calls
+// step(std::integral_constant<int, K>) with K = 1 (revolute, prismatic), 3 (spherical),
+// 6 (floating), Eigen::Dynamic for any other k.
+template <class Step>
+void forJointSize(int k, Step&& step) {
+  if (k == 1) return step(std::integral_constant<int, 1>{});
+  if (k == 3) return step(std::integral_constant<int, 3>{});
+  if (k == 6) return step(std::integral_constant<int, 6>{});
+  step(std::integral_constant<int, Eigen::Dynamic>{});
+}
+
+// A K×K block (K fixed, or Dynamic up to 6) without heap allocation.
+template <class T, int K>
+using MatJ = Eigen::Matrix<T, K, K, 0, K == Eigen::Dynamic ? 6 : K, K == Eigen::Dynamic ? 6 : K>;
+
+// Inverse of a small symmetric positive-definite k×k matrix (k ≤ 6) by Cholesky, D = L Lᵀ;
+// Dinv is k×k on entry. K: k at compile time (or Eigen::Dynamic).
+template <class T, int K = Eigen::Dynamic, class In, class Out>
+void spdInverse(const In& D, Out&& Dinv) {
   using std::sqrt;
-  const int k = static_cast<int>(D.rows());
+  const int k = K == Eigen::Dynamic ? static_cast<int>(D.rows()) : K;
   if (k == 1) {
     Dinv(0, 0) = T(1) / D(0, 0);
     return;
   }
   // Factor D = L Lᵀ; keep 1/L_jj.
-  MatK<T> L = MatK<T>::Zero(k, k);
-  VecK<T> rdiag(k);
+  MatJ<T, K> L = MatJ<T, K>::Zero(k, k);
+  Eigen::Matrix<T, K, 1, 0, K == Eigen::Dynamic ? 6 : K, 1> rdiag(k);
   for (int j = 0; j < k; ++j) {
     T s = D(j, j);
     for (int p = 0; p < j; ++p) s -= L(j, p) * L(j, p);
@@ -55,7 +72,7 @@ void spdInverse(const MatK<T>& D, MatK<T>& Dinv) {
     }
   }
   // Linv = L⁻¹ by forward substitution, then D⁻¹ = L⁻ᵀ L⁻¹.
-  MatK<T> Linv = MatK<T>::Zero(k, k);
+  MatJ<T, K> Linv = MatJ<T, K>::Zero(k, k);
   for (int j = 0; j < k; ++j) {
     Linv(j, j) = rdiag(j);
     for (int i = j + 1; i < k; ++i) {
@@ -71,6 +88,25 @@ void spdInverse(const MatK<T>& D, MatK<T>& Dinv) {
       Dinv(i, j) = t;
       Dinv(j, i) = t;
     }
+}
+
+// One body of K DOFs at v (K > 1): U_i = IA_i S_i, D_i = S_iᵀ U_i, D_i⁻¹, U_i D_i⁻¹, and
+// IA_λ(i) += IA_i − U_i D_i⁻¹ U_iᵀ.
+template <class T, int K>
+void articulatedStep(std::integral_constant<int, K>, const Kinematics<T>& kin, Articulated<T>& art,
+                     int i, int p, int v, int k) {
+  const auto S = kin.S.template middleCols<K>(v, k);
+  auto U = art.U.template middleCols<K>(v, k);
+  auto UD = art.UDinv.template middleCols<K>(v, k);
+  auto Dinv = art.Dinv[i].template topLeftCorner<K, K>(k, k);
+  U.noalias() = art.IA[i].lazyProduct(S);
+  const MatJ<T, K> D = S.transpose().lazyProduct(U);
+  spdInverse<T, K>(D, Dinv);
+  UD.noalias() = U.lazyProduct(Dinv);
+  if (p >= 0) {
+    art.IA[p] += art.IA[i];
+    art.IA[p].noalias() -= UD.lazyProduct(U.transpose());
+  }
 }
 
 // Stage "articulated inertias": IA, U, D⁻¹, U D⁻¹ for every body, leaves first.
@@ -92,17 +128,8 @@ void articulatedInertias(const Model& model, const Kinematics<T>& kin, Articulat
       }
       continue;
     }
-    // U_i = IA_i S_i, D_i = S_iᵀ U_i, D_i⁻¹, U_i D_i⁻¹.
-    art.U.middleCols(v, k).noalias() = art.IA[i].lazyProduct(kin.S.middleCols(v, k));
-    const MatK<T> D = kin.S.middleCols(v, k).transpose().lazyProduct(art.U.middleCols(v, k));
-    spdInverse<T>(D, art.Dinv[i]);
-    art.UDinv.middleCols(v, k).noalias() = art.U.middleCols(v, k).lazyProduct(art.Dinv[i]);
-    // IA_λ(i) += IA_i − U_i D_i⁻¹ U_iᵀ.
-    if (p >= 0) {
-      art.IA[p] += art.IA[i];
-      art.IA[p].noalias() -=
-          art.UDinv.middleCols(v, k).lazyProduct(art.U.middleCols(v, k).transpose());
-    }
+    // More DOFs: the same steps on fixed-size blocks (k = 3, 6) where possible.
+    forJointSize(k, [&](auto K) { articulatedStep(K, kin, art, i, p, v, k); });
   }
 }
 

@@ -63,16 +63,6 @@ using ImpulseIn = std::type_identity_t<const Eigen::Ref<const VecX<T>>&>;
 template <class T>
 using ImpulseOut = std::type_identity_t<Eigen::Ref<VecX<T>>>;
 
-// The body steps are compiled per joint size, so that their products are fixed-size: K = 1
-// (revolute, prismatic), 3 (spherical), 6 (floating), Eigen::Dynamic for any other k.
-template <class Step>
-void forJointSize(int k, Step&& step) {
-  if (k == 1) return step(std::integral_constant<int, 1>{});
-  if (k == 3) return step(std::integral_constant<int, 3>{});
-  if (k == 6) return step(std::integral_constant<int, 6>{});
-  step(std::integral_constant<int, Eigen::Dynamic>{});
-}
-
 // One body of the backward sweep, K DOFs at v: u_i = r_i − S_iᵀ Y_i (ws.u holds r_i on entry),
 // then Y becomes Y_i + U_i D_i⁻¹ u_i, what λ(i) receives (not formed at a root).
 template <class T, int K, class Y6>

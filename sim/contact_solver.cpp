@@ -4,6 +4,7 @@
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 namespace minv::sim {
@@ -82,11 +83,17 @@ void residualsOnLambda(const ContactProblem& p, const Eigen::VectorXd& vplus, Co
   s.residuals.penetration = std::max(0.0, s.residuals.penetration);
 }
 
+// Generators per contact the solver holds on the stack.
+constexpr int kMaxGenerators = 64;
+
 void checkProblem(const ContactProblem& p) {
   const int nc = static_cast<int>(p.b.size());
   if (p.A.rows() != 3 * nc || p.A.cols() != 3 * nc || p.v0.size() != 3 * nc)
     throw std::invalid_argument("contact problem: A must be 3nc x 3nc and v0 3nc");
   if (p.k < 3) throw std::invalid_argument("the linearised friction cone needs k >= 3 directions");
+  if (p.k > kMaxGenerators)
+    throw std::invalid_argument("the linearised friction cone takes at most " +
+                                std::to_string(kMaxGenerators) + " directions");
 }
 
 // g_c = Wᵀ(u_c + [b_c; 0; 0]): contact c's generator velocities from its contact velocities.
@@ -94,6 +101,56 @@ inline void generatorVelocities(const Eigen::MatrixXd& W, const Eigen::VectorXd&
                                 const Eigen::VectorXd& b, int c, int k, double* g) {
   const double un = u(3 * c) + b(c), u1 = u(3 * c + 1), u2 = u(3 * c + 2);
   for (int j = 0; j < k; ++j) g[j] = W(0, j) * un + W(1, j) * u1 + W(2, j) * u2;
+}
+
+// One block Gauss–Seidel sweep: contact by contact, its k generators by coordinate descent on
+// the local gradient (exact through G_cc = Gd's block c; Rd: 1 / diag, 0 = never moved), then
+// one 3-column update of the contact velocities u. K: k at compile time, or Eigen::Dynamic.
+template <int K>
+void contactSweep(const ContactProblem& p, const double* Wd, const double* Gd, const double* Rd,
+                  int inner, ContactSolution& s, Eigen::VectorXd& u) {
+  const int nc = static_cast<int>(p.b.size()), k = K == Eigen::Dynamic ? p.k : K, n3 = 3 * nc;
+  constexpr int n = K == Eigen::Dynamic ? kMaxGenerators : K;
+  double gc[n], old[n];
+  double* uu = u.data();
+  for (int c = 0; c < nc; ++c) {
+    double* bc = s.beta.data() + k * c;
+    const double* G = Gd + k * k * c;
+    const double* rd = Rd + k * c;
+    // g_c = Wᵀ(u_c + [b_c; 0; 0])
+    const double un = uu[3 * c] + p.b(c), u1 = uu[3 * c + 1], u2 = uu[3 * c + 2];
+    for (int j = 0; j < k; ++j) {
+      gc[j] = Wd[3 * j] * un + Wd[3 * j + 1] * u1 + Wd[3 * j + 2] * u2;
+      old[j] = bc[j];
+    }
+    bool changed = false;
+    for (int sweep = 0; sweep < inner; ++sweep) {
+      bool moved = false;
+      for (int j = 0; j < k; ++j) {
+        if (!(rd[j] > 0)) continue;
+        const double nb = std::max(0.0, bc[j] - gc[j] * rd[j]);
+        const double delta = nb - bc[j];
+        if (delta != 0) {
+          bc[j] = nb;
+          for (int i = 0; i < k; ++i) gc[i] += delta * G[k * j + i];
+          moved = true;
+        }
+      }
+      changed |= moved;
+      if (!moved) break;
+    }
+    if (!changed) continue;
+    // Δλ_c = W Δβ_c; u += A_{:,c} Δλ_c (three contiguous columns, one pass over u).
+    double d0 = 0, d1 = 0, d2 = 0;
+    for (int j = 0; j < k; ++j) {
+      const double db = bc[j] - old[j];
+      d0 += db * Wd[3 * j], d1 += db * Wd[3 * j + 1], d2 += db * Wd[3 * j + 2];
+    }
+    s.lambda(3 * c) += d0, s.lambda(3 * c + 1) += d1, s.lambda(3 * c + 2) += d2;
+    const double* a0 = p.A.data() + static_cast<std::ptrdiff_t>(3 * c) * n3;
+    const double *a1 = a0 + n3, *a2 = a1 + n3;
+    for (int i = 0; i < n3; ++i) uu[i] += a0[i] * d0 + a1[i] * d1 + a2[i] * d2;
+  }
 }
 
 }  // namespace
@@ -136,47 +193,13 @@ ContactSolution solveMaxDissipation(const ContactProblem& p, const Eigen::Vector
     return e;
   };
   r.converged = false;
-  std::vector<double> gcv(k), oldv(k);
-  double *gc = gcv.data(), *old = oldv.data();
-  const int n3 = 3 * nc;
+  const double* Wd = W.data();  // W(r, j) = Wd[3 j + r]
   for (int it = 1; it <= o.max_iterations; ++it) {
-    // One block Gauss-Seidel sweep: contact by contact, its k generators by coordinate descent
-    // on the local gradient (exact through G_cc), then one 3-column update of u.
-    for (int c = 0; c < nc; ++c) {
-      double* bc = s.beta.data() + k * c;
-      const double* G = Gd.data() + k * k * c;
-      generatorVelocities(W, u, p.b, c, k, gc);
-      bool changed = false;
-      for (int j = 0; j < k; ++j) old[j] = bc[j];
-      for (int sweep = 0; sweep < inner; ++sweep) {
-        bool moved = false;
-        for (int j = 0; j < k; ++j) {
-          const double rd = Rd[k * c + j];
-          if (!(rd > 0)) continue;
-          const double nb = std::max(0.0, bc[j] - gc[j] * rd);
-          const double delta = nb - bc[j];
-          if (delta != 0) {
-            bc[j] = nb;
-            for (int i = 0; i < k; ++i) gc[i] += delta * G[k * j + i];
-            moved = true;
-          }
-        }
-        changed |= moved;
-        if (!moved) break;
-      }
-      if (!changed) continue;
-      // Δλ_c = W Δβ_c; u += A_{:,c} Δλ_c (three contiguous columns, one pass over u).
-      double d0 = 0, d1 = 0, d2 = 0;
-      for (int j = 0; j < k; ++j) {
-        const double db = bc[j] - old[j];
-        d0 += db * W(0, j), d1 += db * W(1, j), d2 += db * W(2, j);
-      }
-      s.lambda(3 * c) += d0, s.lambda(3 * c + 1) += d1, s.lambda(3 * c + 2) += d2;
-      const double* a0 = p.A.data() + static_cast<std::ptrdiff_t>(3 * c) * n3;
-      const double *a1 = a0 + n3, *a2 = a1 + n3;
-      double* uu = u.data();
-      for (int i = 0; i < n3; ++i) uu[i] += a0[i] * d0 + a1[i] * d1 + a2[i] * d2;
-    }
+    // One block Gauss-Seidel sweep (fixed-size for the usual k = 4).
+    if (k == 4)
+      contactSweep<4>(p, Wd, Gd.data(), Rd.data(), inner, s, u);
+    else
+      contactSweep<Eigen::Dynamic>(p, Wd, Gd.data(), Rd.data(), inner, s, u);
     // No drift from the incremental updates.
     if (it % 64 == 0) {
       for (int c = 0; c < nc; ++c)

@@ -30,15 +30,23 @@ Vec6<double> crossForce(const Vec6<double>& v, const Vec6<double>& f) {
 
 }  // namespace
 
+// Vectors of a joint's K DOFs (K = 1, 3, 6, or Dynamic up to 6), fixed-size where K is.
+template <int K>
+using VecJ = Eigen::Matrix<double, K, 1, 0, K == Eigen::Dynamic ? 6 : K, 1>;
+
 void bodyVelocities(const Model& model, const Kinematics<double>& kin, const Eigen::VectorXd& v,
                     Mat6N<double>& V) {
   for (int i = 0; i < model.nb(); ++i) {
     const int p = model.parent(i), vi = model.vIdx(i), k = model.nvOf(i);
-    const Vec6<double> vJ = kin.S.middleCols(vi, k) * v.segment(vi, k);
-    V.col(i) = p >= 0 ? Vec6<double>(V.col(p) + vJ) : vJ;
+    forJointSize(k, [&](auto K) {
+      constexpr int N = decltype(K)::value;
+      const Vec6<double> vJ = kin.S.template middleCols<N>(vi, k) * v.template segment<N>(vi, k);
+      V.col(i) = p >= 0 ? Vec6<double>(V.col(p) + vJ) : vJ;
+    });
   }
 }
 
+// Each pass's body step on fixed-size blocks of the joint's K DOFs (forJointSize).
 void aba(const Model& model, const Kinematics<double>& kin, const Articulated<double>& art,
          const Eigen::VectorXd& v, const Eigen::VectorXd& tau, const Eigen::Vector3d& gravity,
          AbaWorkspace& ws, Eigen::VectorXd& qdd) {
@@ -46,36 +54,46 @@ void aba(const Model& model, const Kinematics<double>& kin, const Articulated<do
   // Pass 1: velocities, velocity-product accelerations c_i = V_i × S_i q̇_i, bias forces.
   for (int i = 0; i < nb; ++i) {
     const int p = model.parent(i), vi = model.vIdx(i), k = model.nvOf(i);
-    const Vec6<double> vJ = kin.S.middleCols(vi, k) * v.segment(vi, k);
-    const Vec6<double> V = p >= 0 ? Vec6<double>(ws.V.col(p) + vJ) : vJ;
-    ws.V.col(i) = V;
-    ws.c.col(i) = crossMotion(V, vJ);
-    ws.pA.col(i) = crossForce(V, kin.I[i] * V);
+    forJointSize(k, [&](auto K) {
+      constexpr int N = decltype(K)::value;
+      const Vec6<double> vJ = kin.S.template middleCols<N>(vi, k) * v.template segment<N>(vi, k);
+      const Vec6<double> V = p >= 0 ? Vec6<double>(ws.V.col(p) + vJ) : vJ;
+      ws.V.col(i) = V;
+      ws.c.col(i) = crossMotion(V, vJ);
+      ws.pA.col(i) = crossForce(V, kin.I[i] * V);
+    });
   }
   // Pass 2: u_i = τ_i − S_iᵀ pA_i; pA_λ += pA_i + Ia_i c_i + U_i D_i⁻¹ u_i with
   // Ia_i = IA_i − U_i D_i⁻¹ U_iᵀ.
   for (int i = nb - 1; i >= 0; --i) {
     const int p = model.parent(i), vi = model.vIdx(i), k = model.nvOf(i);
-    ws.u.segment(vi, k) = tau.segment(vi, k) - kin.S.middleCols(vi, k).transpose() * ws.pA.col(i);
-    if (p >= 0) {
+    forJointSize(k, [&](auto K) {
+      constexpr int N = decltype(K)::value;
+      const auto S = kin.S.template middleCols<N>(vi, k);
+      const auto UD = art.UDinv.template middleCols<N>(vi, k);
+      const VecJ<N> u = tau.template segment<N>(vi, k) - S.transpose() * ws.pA.col(i);
+      ws.u.template segment<N>(vi, k) = u;
+      if (p < 0) return;
       const Vec6<double> ci = ws.c.col(i);
-      const VecK<double> Utc = art.U.middleCols(vi, k).transpose() * ci;
+      const VecJ<N> Utc = art.U.template middleCols<N>(vi, k).transpose() * ci;
       Vec6<double> pa = ws.pA.col(i) + art.IA[i] * ci;
-      pa.noalias() -= art.UDinv.middleCols(vi, k) * Utc;
-      pa.noalias() += art.UDinv.middleCols(vi, k) * ws.u.segment(vi, k);
+      pa.noalias() += UD * (u - Utc);
       ws.pA.col(p) += pa;
-    }
+    });
   }
   // Pass 3: accelerations; gravity enters as the root's fictitious acceleration −g.
   Vec6<double> a0;
   a0 << Eigen::Vector3d::Zero(), -gravity;
   for (int i = 0; i < nb; ++i) {
     const int p = model.parent(i), vi = model.vIdx(i), k = model.nvOf(i);
-    const Vec6<double> ap = (p >= 0 ? Vec6<double>(ws.a.col(p)) : a0) + ws.c.col(i);
-    VecK<double> qd = art.Dinv[i] * ws.u.segment(vi, k);
-    qd.noalias() -= art.UDinv.middleCols(vi, k).transpose() * ap;
-    qdd.segment(vi, k) = qd;
-    ws.a.col(i) = ap + kin.S.middleCols(vi, k) * qd;
+    forJointSize(k, [&](auto K) {
+      constexpr int N = decltype(K)::value;
+      const Vec6<double> ap = (p >= 0 ? Vec6<double>(ws.a.col(p)) : a0) + ws.c.col(i);
+      VecJ<N> qd = art.Dinv[i].template topLeftCorner<N, N>(k, k) * ws.u.template segment<N>(vi, k);
+      qd.noalias() -= art.UDinv.template middleCols<N>(vi, k).transpose() * ap;
+      qdd.template segment<N>(vi, k) = qd;
+      ws.a.col(i) = ap + kin.S.template middleCols<N>(vi, k) * qd;
+    });
   }
 }
 
