@@ -179,10 +179,13 @@ void omegaStep(std::integral_constant<int, K>, const Kinematics<T>& kin, const A
 template <class T>
 void applyPropagator(const Kinematics<T>& kin, const Articulated<T>& art,
                      ContactInertiaWorkspace<T>& ws, int v, int k, int r0, int L) {
-  auto Fr = ws.F.middleRows(r0, L);
-  auto t = ws.Tk.topLeftCorner(L, k);
-  t.noalias() = Fr.lazyProduct(kin.S.middleCols(v, k));
-  Fr.noalias() -= t.lazyProduct(art.UDinv.middleCols(v, k).transpose());
+  forJointSize(k, [&](auto K) {
+    constexpr int N = decltype(K)::value;
+    auto Fr = ws.F.middleRows(r0, L);
+    auto t = ws.Tk.template leftCols<N>(k).topRows(L);
+    t.noalias() = Fr.lazyProduct(kin.S.template middleCols<N>(v, k));
+    Fr.noalias() -= t.lazyProduct(art.UDinv.template middleCols<N>(v, k).transpose());
+  });
 }
 
 // f ← Φ f for the rows [r0, r0 + L) of F.

@@ -11,6 +11,7 @@
 #include "generators/centipede.hpp"
 #include "sim/gait.hpp"
 #include "sim/mujoco_step.hpp"
+#include "solvers/openblas.hpp"
 
 namespace minv::sim {
 
@@ -126,6 +127,9 @@ CentipedeRunResult runCentipede(const CentipedeRunOptions& o, std::ostream& log,
     throw std::invalid_argument("path mujoco-step runs MuJoCo 2.2's mj_step, which has one thread");
   if (mujoco && o.friction_dirs != 4)
     throw std::invalid_argument("path mujoco-step has MuJoCo's pyramidal cone of 4 directions");
+  // BLAS on one thread unless a solver path asks for more (its setThreads), as the benchmarks
+  // run it: OpenBLAS's idle workers would otherwise spin beside the timed step.
+  openblas_set_num_threads(1);
   CentipedeOptions co;
   co.segments = o.segments;
   co.segment_joint = segmentJointFromName(o.segment_joint);
