@@ -13,6 +13,19 @@ double since(Clock::time_point& t0) {
   t0 = t1;
   return s;
 }
+
+// The contact-inertia recursion on doubles, compiled (the whole call tree inlined) for AVX-512
+// and AVX2 beside the portable build and chosen at load time (GCC target_clones): its Θ(m²)
+// pair blocks are products of depth 6 that want FMA and wide vectors. The same code the
+// Counted scalar counts.
+__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"), flatten)) void
+contactInertiaWide(const Model& model, const Kinematics<double>& kin,
+                   const Articulated<double>& art, const std::vector<int>& bodies,
+                   const std::vector<Vec6<double>>& wrenches, ContactInertiaWorkspace<double>& ws,
+                   MatX<double>& A, int threads) {
+  contactInertia<double>(model, kin, art, bodies, wrenches, ws, A, threads);
+}
+
 }  // namespace
 
 std::vector<std::string> simulationPaths() {
@@ -134,7 +147,7 @@ void Simulator::step() {
     Eigen::MatrixXd& A = prob_.A;
     A.resize(m, m);
     if (o_.path == kContactInertiaPath) {
-      contactInertia<double>(model_, kin_, art_, bodies, wrenches, cia_, A, o_.threads);
+      contactInertiaWide(model_, kin_, art_, bodies, wrenches, cia_, A, o_.threads);
     } else if (!solver_ && o_.threads > 1) {
       testImpulses(model_, kin_, art_, column_ws_, bodies, wrenches, A, column_scratch_);
     } else if (!solver_) {
