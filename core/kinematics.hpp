@@ -69,10 +69,10 @@ Pose<T> jointPose(const Joint& j, const VecX<T>& q, int o) {
       // Rodrigues: R = c·1 + s·ã + (1 − c)·a aᵀ, entry by entry (the symmetric part once).
       const T c = cos(q(o)), s = sin(q(o));
       const Vec3<T> ta = (T(1) - c) * a, sa = s * a;
-      for (int j = 0; j < 3; ++j)
-        for (int i = j; i < 3; ++i) {
-          const T x = ta(i) * a(j);
-          J.R(i, j) = J.R(j, i) = x;
+      for (int col = 0; col < 3; ++col)
+        for (int row = col; row < 3; ++row) {
+          const T x = ta(row) * a(col);
+          J.R(row, col) = J.R(col, row) = x;
         }
       for (int i = 0; i < 3; ++i) J.R(i, i) += c;
       J.R(0, 1) -= sa(2), J.R(1, 0) += sa(2);

@@ -133,14 +133,37 @@ void centipedeCase(SegmentJoint joint, int segments, std::uint64_t seed) {
 }
 
 // Two threads split the large pair blocks by rows: the same matrix bit for bit, and the
-// reference's within 1e-10. S = 40: 240 tip directions, root blocks over 16384 entries.
+// reference's within 1e-10. A floating base with two chains of 80 revolute bodies and a point
+// contact on each: the root's block pairs the chains' 240 directions, 240 × 240 entries, over
+// the split threshold (the centipede's blocks are one subtree × at most 6 directions: none is).
 TEST(ContactInertia, TwoThreads) {
-  const Centipede cp = makeCentipede({.segments = 40});
-  const Model& m = cp.model;
+  constexpr int kChain = 80;
+  std::vector<int> parent{-1};
+  std::vector<Joint> joints(1);
+  joints[0].type = JointType::Floating;
+  Rng axes(7);
+  for (int c = 0; c < 2; ++c)
+    for (int i = 0; i < kChain; ++i) {
+      parent.push_back(i == 0 ? 0 : static_cast<int>(parent.size()) - 1);
+      Joint j;
+      j.axis = axes.unitVector();
+      j.placement.p = Eigen::Vector3d(c == 0 ? 0.1 : -0.1, 0.02, 0);
+      joints.push_back(j);
+    }
+  for (std::size_t i = 0; i < joints.size(); ++i) joints[i].name = "j" + std::to_string(i);
+  std::vector<Body> bodies(joints.size());
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
+    bodies[i].name = "b" + std::to_string(i);
+    bodies[i].com = Eigen::Vector3d(0.05, 0, 0);
+  }
+  const Model m = Model::create(parent, joints, bodies);
   const Eigen::VectorXd q = randomConfiguration(m, 41);
   Kinematics<double> kin(m);
   computeKinematics<double>(m, q, kin);
-  const Contacts c = tipContacts(cp, kin);
+  Rng rng(42);
+  Contacts c;
+  for (int b = 1; b < m.nb(); ++b) c.point(b, nearBody(kin, b, rng));
+  static_assert(3 * kChain * 3 * kChain >= ContactInertiaWorkspace<double>::kParallelEntries);
   const Eigen::MatrixXd one = recursion(m, kin, c), two = recursion(m, kin, c, 0, 2);
   EXPECT_TRUE(two == one) << "two threads changed A";
   EXPECT_LT(relativeError(two, denseReference(m, q, kin, c)), 1e-10);

@@ -294,6 +294,9 @@ void runCentipedeSweep(const CentipedeSweepOptions& o, std::ostream& log) {
       throw std::invalid_argument("unknown solver '" + s + "'");
     if (s == kMujocoStepPath && !haveMujocoStep())
       throw std::invalid_argument("path mujoco-step needs MuJoCo, and this build has none");
+    if (s == kMujocoStepPath && o.threads != 1)
+      throw std::invalid_argument(
+          "path mujoco-step runs MuJoCo 2.2's mj_step, which has one thread");
   }
   for (int s : o.segments)
     if (s < 1) throw std::invalid_argument("--segments values must be at least 1");
