@@ -1,8 +1,8 @@
 # Writes OUT = `#define MINV_GIT_SHA "<sha>"` for the source tree SRC at build time (run by the
 # minv_git_sha target on every build), so a result file names the commit its binary was built
 # from, not the one CMake was configured at. "-dirty" marks sources that differ from the commit,
-# new files included (results/ and paper/ aside: they are outputs). The file is rewritten only when the text
-# changes, so only provenance.cpp recompiles, and only after a new commit.
+# new files included (results/ and paper/ aside: they are outputs). The file is rewritten only
+# when the text changes, so only provenance.cpp recompiles, and only after a new commit.
 execute_process(COMMAND git rev-parse --short=12 HEAD WORKING_DIRECTORY ${SRC}
                 OUTPUT_VARIABLE sha OUTPUT_STRIP_TRAILING_WHITESPACE ERROR_QUIET)
 if(NOT sha)

@@ -97,10 +97,10 @@ void checkProblem(const ContactProblem& p) {
 }
 
 // g_c = Wᵀ(u_c + [b_c; 0; 0]): contact c's generator velocities from its contact velocities.
-inline void generatorVelocities(const Eigen::MatrixXd& W, const Eigen::VectorXd& u,
-                                const Eigen::VectorXd& b, int c, int k, double* g) {
-  const double un = u(3 * c) + b(c), u1 = u(3 * c + 1), u2 = u(3 * c + 2);
-  for (int j = 0; j < k; ++j) g[j] = W(0, j) * un + W(1, j) * u1 + W(2, j) * u2;
+inline void generatorVelocities(const double* Wd, const double* u, const Eigen::VectorXd& b, int c,
+                                int k, double* g) {
+  const double un = u[3 * c] + b(c), u1 = u[3 * c + 1], u2 = u[3 * c + 2];
+  for (int j = 0; j < k; ++j) g[j] = Wd[3 * j] * un + Wd[3 * j + 1] * u1 + Wd[3 * j + 2] * u2;
 }
 
 // u += a0 d0 + a1 d1 + a2 d2 over n entries: the sweep's one long loop, compiled for AVX2 and
@@ -126,12 +126,8 @@ void contactSweep(const ContactProblem& p, const double* Wd, const double* Gd, c
     double* bc = s.beta.data() + k * c;
     const double* G = Gd + k * k * c;
     const double* rd = Rd + k * c;
-    // g_c = Wᵀ(u_c + [b_c; 0; 0])
-    const double un = uu[3 * c] + p.b(c), u1 = uu[3 * c + 1], u2 = uu[3 * c + 2];
-    for (int j = 0; j < k; ++j) {
-      gc[j] = Wd[3 * j] * un + Wd[3 * j + 1] * u1 + Wd[3 * j + 2] * u2;
-      old[j] = bc[j];
-    }
+    generatorVelocities(Wd, uu, p.b, c, k, gc);
+    for (int j = 0; j < k; ++j) old[j] = bc[j];
     bool changed = false;
     for (int sweep = 0; sweep < inner; ++sweep) {
       bool moved = false;
@@ -169,6 +165,7 @@ ContactSolution solveMaxDissipation(const ContactProblem& p, const Eigen::Vector
   checkProblem(p);
   const int nc = static_cast<int>(p.b.size()), k = p.k, m = k * nc;
   const Eigen::MatrixXd W = coneGenerators(p.mu, k);
+  const double* Wd = W.data();  // W(r, j) = Wd[3 j + r]
   const int inner = std::max(1, o.inner_sweeps);
   ContactSolution s;
   s.beta = beta.size() == m ? Eigen::VectorXd(beta.cwiseMax(0.0)) : Eigen::VectorXd::Zero(m);
@@ -193,16 +190,15 @@ ContactSolution solveMaxDissipation(const ContactProblem& p, const Eigen::Vector
   if (warm) u.noalias() += p.A * s.lambda;
   // The scale of the relative test: ‖g0‖∞, g0 = Wᵀ(v0 + [b; 0; 0]).
   Eigen::VectorXd g(m);
-  for (int c = 0; c < nc; ++c) generatorVelocities(W, p.v0, p.b, c, k, g.data() + k * c);
+  for (int c = 0; c < nc; ++c) generatorVelocities(Wd, p.v0.data(), p.b, c, k, g.data() + k * c);
   const double tol = o.tolerance * std::max(g.cwiseAbs().maxCoeff(), o.floor);
   auto kkt = [&] {
     double e = 0;
-    for (int c = 0; c < nc; ++c) generatorVelocities(W, u, p.b, c, k, g.data() + k * c);
+    for (int c = 0; c < nc; ++c) generatorVelocities(Wd, u.data(), p.b, c, k, g.data() + k * c);
     for (int j = 0; j < m; ++j) e = std::max(e, std::abs(std::min(s.beta(j), g(j))));
     return e;
   };
   r.converged = false;
-  const double* Wd = W.data();  // W(r, j) = Wd[3 j + r]
   for (int it = 1; it <= o.max_iterations; ++it) {
     // One block Gauss-Seidel sweep (fixed-size for the usual k = 4).
     if (k == 4)

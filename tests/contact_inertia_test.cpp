@@ -66,6 +66,13 @@ void randomPoints(Contacts& c, const Kinematics<double>& kin, int count, Rng& rn
   }
 }
 
+// World-frame kinematics of the model at q.
+Kinematics<double> kinematicsAt(const Model& model, const Eigen::VectorXd& q) {
+  Kinematics<double> kin(model);
+  computeKinematics<double>(model, q, kin);
+  return kin;
+}
+
 // Jᵀ M⁻¹ J with X = M⁻¹J from the lapack solver.
 Eigen::MatrixXd denseReference(const Model& model, const Eigen::VectorXd& q,
                                const Kinematics<double>& kin, const Contacts& c) {
@@ -97,8 +104,7 @@ double relativeError(const Eigen::MatrixXd& A, const Eigen::MatrixXd& ref) {
 // Checks the recursion against the reference at q; returns the error.
 double check(const Model& model, const Eigen::VectorXd& q, const Contacts& c,
              const std::string& what) {
-  Kinematics<double> kin(model);
-  computeKinematics<double>(model, q, kin);
+  const Kinematics<double> kin = kinematicsAt(model, q);
   const Eigen::MatrixXd ref = denseReference(model, q, kin, c);
   const Eigen::MatrixXd A = recursion(model, kin, c);
   EXPECT_TRUE(A.allFinite()) << what;
@@ -123,8 +129,7 @@ void centipedeCase(SegmentJoint joint, int segments, std::uint64_t seed) {
   const Centipede cp = makeCentipede({.segments = segments, .segment_joint = joint});
   const Model& m = cp.model;
   const Eigen::VectorXd q = randomConfiguration(m, seed);
-  Kinematics<double> kin(m);
-  computeKinematics<double>(m, q, kin);
+  const Kinematics<double> kin = kinematicsAt(m, q);
   Contacts c = tipContacts(cp, kin);
   Rng rng(seed);
   randomPoints(c, kin, 4, rng);
@@ -158,8 +163,7 @@ TEST(ContactInertia, TwoThreads) {
   }
   const Model m = Model::create(parent, joints, bodies);
   const Eigen::VectorXd q = randomConfiguration(m, 41);
-  Kinematics<double> kin(m);
-  computeKinematics<double>(m, q, kin);
+  const Kinematics<double> kin = kinematicsAt(m, q);
   Rng rng(42);
   Contacts c;
   for (int b = 1; b < m.nb(); ++b) c.point(b, nearBody(kin, b, rng));
@@ -189,8 +193,7 @@ TEST(ContactInertia, RandomBranchedTrees) {
                                 .floating_base = floating,
                                 .joints = JointSet::Mixed});
     const Eigen::VectorXd q = randomConfiguration(m, 400 + trial);
-    Kinematics<double> kin(m);
-    computeKinematics<double>(m, q, kin);
+    const Kinematics<double> kin = kinematicsAt(m, q);
     Rng rng(500 + trial);
     Contacts c;
     const int crowded = rng.below(m.nb());
@@ -221,8 +224,7 @@ TEST(ContactInertia, ContactsOnTheFloatingBaseOnly) {
   const Model m =
       randomTree({.topology = Topology::Branched, .n = 12, .seed = 7, .floating_base = true});
   const Eigen::VectorXd q = randomConfiguration(m, 8);
-  Kinematics<double> kin(m);
-  computeKinematics<double>(m, q, kin);
+  const Kinematics<double> kin = kinematicsAt(m, q);
   Rng rng(9);
   Contacts c;
   for (int e = 0; e < 4; ++e) c.point(0, nearBody(kin, 0, rng));
@@ -239,8 +241,7 @@ TEST(ContactInertia, SerialChainsCompositePropagators) {
                                 .floating_base = trial % 2 == 1,
                                 .joints = trial < 3 ? JointSet::Revolute : JointSet::Mixed});
     const Eigen::VectorXd q = randomConfiguration(m, 800 + trial);
-    Kinematics<double> kin(m);
-    computeKinematics<double>(m, q, kin);
+    const Kinematics<double> kin = kinematicsAt(m, q);
     Rng rng(900 + trial);
     Contacts c;
     const int tip = m.nb() - 1, mid = m.nb() / 2;
@@ -271,8 +272,7 @@ TEST(ContactInertia, Forest) {
   }
   const Model m = Model::create(parent, joints, bodies);
   const Eigen::VectorXd q = randomConfiguration(m, 13);
-  Kinematics<double> kin(m);
-  computeKinematics<double>(m, q, kin);
+  const Kinematics<double> kin = kinematicsAt(m, q);
   Rng rng(14);
   Contacts c;
   randomPoints(c, kin, 6, rng);
@@ -307,8 +307,7 @@ TEST(ContactInertia, WorkspaceReuse) {
 TEST(ContactInertia, CountedGivesTheSameNumbers) {
   const Model m = floatingMixed(20, 31);
   const Eigen::VectorXd q = randomConfiguration(m, 32);
-  Kinematics<double> kin(m);
-  computeKinematics<double>(m, q, kin);
+  const Kinematics<double> kin = kinematicsAt(m, q);
   Rng rng(33);
   Contacts c;
   randomPoints(c, kin, 8, rng);

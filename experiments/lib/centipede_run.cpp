@@ -107,6 +107,13 @@ Eigen::Vector3d centreOfMass(const Model& m, const Kinematics<double>& kin) {
   return c / mass;
 }
 
+// --threads: at least 1, and 1 for mujoco-step.
+void checkThreads(const std::string& path, int threads) {
+  if (threads < 1) throw std::invalid_argument("--threads must be at least 1");
+  if (path == kMujocoStepPath && threads != 1)
+    throw std::invalid_argument("path mujoco-step runs MuJoCo 2.2's mj_step, which has one thread");
+}
+
 std::string fmt(const char* f, double a, double b = 0, double c = 0, double d = 0) {
   char buf[256];
   std::snprintf(buf, sizeof buf, f, a, b, c, d);
@@ -122,9 +129,7 @@ CentipedeRunResult runCentipede(const CentipedeRunOptions& o, std::ostream& log,
   const bool mujoco = o.solver == kMujocoStepPath;
   if (mujoco && !haveMujocoStep())
     throw std::invalid_argument("path mujoco-step needs MuJoCo, and this build has none");
-  if (o.threads < 1) throw std::invalid_argument("--threads must be at least 1");
-  if (mujoco && o.threads != 1)
-    throw std::invalid_argument("path mujoco-step runs MuJoCo 2.2's mj_step, which has one thread");
+  checkThreads(o.solver, o.threads);
   if (mujoco && o.friction_dirs != 4)
     throw std::invalid_argument("path mujoco-step has MuJoCo's pyramidal cone of 4 directions");
   // BLAS on one thread unless a solver path asks for more (its setThreads), as the benchmarks
@@ -284,7 +289,6 @@ std::string sweepPointPath(const std::string& solver, int threads) {
 }
 
 void runCentipedeSweep(const CentipedeSweepOptions& o, std::ostream& log) {
-  if (o.threads < 1) throw std::invalid_argument("--threads must be at least 1");
   if (o.segments.empty() || o.solvers.empty())
     throw std::invalid_argument("the sweep needs segments and solvers");
   std::vector<std::string> known = simulationPaths();
@@ -294,9 +298,7 @@ void runCentipedeSweep(const CentipedeSweepOptions& o, std::ostream& log) {
       throw std::invalid_argument("unknown solver '" + s + "'");
     if (s == kMujocoStepPath && !haveMujocoStep())
       throw std::invalid_argument("path mujoco-step needs MuJoCo, and this build has none");
-    if (s == kMujocoStepPath && o.threads != 1)
-      throw std::invalid_argument(
-          "path mujoco-step runs MuJoCo 2.2's mj_step, which has one thread");
+    checkThreads(s, o.threads);  // before any point: a refused path is not a skipped point
   }
   for (int s : o.segments)
     if (s < 1) throw std::invalid_argument("--segments values must be at least 1");
