@@ -13,12 +13,14 @@
 // Cost: Θ(nb); no allocation after the Kinematics object is built.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <type_traits>
 #include <vector>
 
 #include "core/counting.hpp"
 #include "core/model.hpp"
+#include "core/sincos.hpp"
 #include "core/spatial.hpp"
 
 namespace minv {
@@ -33,15 +35,40 @@ using Mat6N = Eigen::Matrix<T, 6, Eigen::Dynamic>;
 // Where the frame of a Kinematics object has its origin (its axes are always the world's).
 enum class Origin { World, EachRoot };
 
+// Per body: the revolute joint's placement rotation P split by Rodrigues' formula, so that
+//   P·exp(θ ã) = Pa + cos θ·Pc + sin θ·Ps,  Pa = P a aᵀ, Pc = P (1 − a aᵀ), Ps = P ã,
+// constant for the tree (zero for other joints); built with the Kinematics object.
+template <class T>
+struct RevoluteSplit {
+  Mat3<T> Pa = Mat3<T>::Zero(), Pc = Mat3<T>::Zero(), Ps = Mat3<T>::Zero();
+};
+
 template <class T>
 struct Kinematics {
   std::vector<Pose<T>> X;  // body i's pose in the world
   Mat6N<T> S;              // motion subspaces in world coordinates, column k for DOF k
   std::vector<Mat6<T>> I;  // body spatial inertias in world coordinates
   Origin origin;           // World, or each tree's root joint
+  VecX<T> sinq, cosq;      // sin and cos of each revolute joint's angle, at its coordinate
+  std::vector<RevoluteSplit<T>> split;  // per body, for revolute joints
 
   explicit Kinematics(const Model& m, Origin o = Origin::World)
-      : X(m.nb()), S(Mat6N<T>::Zero(6, m.nv())), I(m.nb()), origin(o) {}
+      : X(m.nb()),
+        S(Mat6N<T>::Zero(6, m.nv())),
+        I(m.nb()),
+        origin(o),
+        sinq(VecX<T>::Zero(m.nq())),
+        cosq(VecX<T>::Zero(m.nq())),
+        split(m.nb()) {
+    for (int i = 0; i < m.nb(); ++i) {
+      const Joint& j = m.joint(i);
+      if (j.type != JointType::Revolute) continue;
+      const Eigen::Matrix3d P = j.placement.R, aa = j.axis * j.axis.transpose();
+      split[i].Pa = (P * aa).cast<T>();
+      split[i].Pc = (P * (Eigen::Matrix3d::Identity() - aa)).cast<T>();
+      split[i].Ps = (P * skew<double>(j.axis)).cast<T>();
+    }
+  }
 };
 
 // Rotation of a unit quaternion (w, x, y, z); normalises first.
@@ -57,138 +84,229 @@ Mat3<T> quatToRotation(T w, T x, T y, T z) {
   return R;
 }
 
-// Pose of the joint's motion: body frame relative to the joint frame.
+// sin and cos of every revolute joint's angle into kin.sinq, kin.cosq. On doubles every
+// coordinate goes through one vectorised loop (core/sincos.hpp; the others are not read); on
+// any other scalar (the counting one) only the revolute angles, one sin and one cos each.
 template <class T>
-Pose<T> jointPose(const Joint& j, const VecX<T>& q, int o) {
+void jointSinCos(const Model& model, const VecX<T>& q, Kinematics<T>& kin) {
   using std::cos;
   using std::sin;
-  Pose<T> J;
-  const Vec3<T> a = j.axis.cast<T>();
-  switch (j.type) {
-    case JointType::Revolute: {
-      // Rodrigues: R = c·1 + s·ã + (1 − c)·a aᵀ, entry by entry (the symmetric part once).
-      const T c = cos(q(o)), s = sin(q(o));
-      const Vec3<T> ta = (T(1) - c) * a, sa = s * a;
-      for (int col = 0; col < 3; ++col)
-        for (int row = col; row < 3; ++row) {
-          const T x = ta(row) * a(col);
-          J.R(row, col) = J.R(col, row) = x;
-        }
-      for (int i = 0; i < 3; ++i) J.R(i, i) += c;
-      J.R(0, 1) -= sa(2), J.R(1, 0) += sa(2);
-      J.R(0, 2) += sa(1), J.R(2, 0) -= sa(1);
-      J.R(1, 2) -= sa(0), J.R(2, 1) += sa(0);
-      break;
-    }
-    case JointType::Prismatic:
-      J.p = a * q(o);
-      break;
-    case JointType::Spherical:
-      J.R = quatToRotation<T>(q(o), q(o + 1), q(o + 2), q(o + 3));
-      break;
-    case JointType::Floating:
-      J.p = q.template segment<3>(o);
-      J.R = quatToRotation<T>(q(o + 3), q(o + 4), q(o + 5), q(o + 6));
-      break;
+  if constexpr (std::is_same_v<T, double>) {
+    const auto n = std::min(q.size(), kin.sinq.size());
+    sinCos(q.data(), static_cast<int>(n), kin.sinq.data(), kin.cosq.data());
+  } else {
+    for (int i = 0; i < model.nb(); ++i)
+      if (model.joint(i).type == JointType::Revolute) {
+        const int o = model.qIdx(i);
+        kin.sinq(o) = sin(q(o));
+        kin.cosq(o) = cos(q(o));
+      }
   }
-  return J;
 }
 
-// Stage "spatial axes": poses ⁰X_i and world-frame motion subspaces S_i; one mark per body.
-// With threads > 1 (and no marks) the per-body steps are shared among OpenMP threads and only
-// the composition along the tree runs in order.
-template <class T, class Mark = NoMark>
-void forwardKinematics(const Model& model, const VecX<T>& q, Kinematics<T>& kin, Mark&& mark = {},
-                       int threads = 1) {
-  // The joint's pose in its parent's frame: placement · X_J(q_i).
-  auto local = [&](int i) {
-    const Joint& j = model.joint(i);
-    kin.X[i] = castPose<T>(j.placement) * jointPose<T>(j, q, model.qIdx(i));
-  };
-  // ⁰X_i = ⁰X_λ(i) · (placement · X_J), parents first; a root at the origin if asked.
-  auto compose = [&](int i) {
-    if (model.parent(i) >= 0)
-      kin.X[i] = kin.X[model.parent(i)] * kin.X[i];
-    else if (kin.origin == Origin::EachRoot)
-      kin.X[i].p.setZero();
-  };
-  // S_i: the joint's body-frame subspace carried to world coordinates.
-  auto axes = [&](int i) {
-    const Joint& j = model.joint(i);
-    const Pose<T>& X = kin.X[i];
-    const int v = model.vIdx(i);
-    switch (j.type) {
-      case JointType::Revolute: {
-        const Vec3<T> w = X.R * j.axis.cast<T>();
-        kin.S.col(v) << w, X.p.cross(w);
-        break;
-      }
-      case JointType::Prismatic:
-        kin.S.col(v) << Vec3<T>::Zero(), X.R * j.axis.cast<T>();
-        break;
-      case JointType::Spherical:
-        for (int c = 0; c < 3; ++c) kin.S.col(v + c) << X.R.col(c), X.p.cross(X.R.col(c));
-        break;
-      case JointType::Floating:
-        for (int c = 0; c < 3; ++c) {
-          kin.S.col(v + c) << X.R.col(c), X.p.cross(X.R.col(c));
-          kin.S.col(v + 3 + c) << Vec3<T>::Zero(), X.R.col(c);
-        }
-        break;
+// Poses below are plain arrays: a rotation R as 9 entries, column-major (Eigen's order), a
+// translation p as 3. The per-body steps are scalar code on them, so that a chain keeps its
+// poses in registers; the results go to kin (Eigen) once.
+
+// C = A·B (3×3).
+template <class T, class U>
+MINV_INLINE void mul33(const T* A, const U* B, T* C) {
+  for (int c = 0; c < 3; ++c)
+    for (int r = 0; r < 3; ++r)
+      C[r + 3 * c] = A[r] * T(B[3 * c]) + A[r + 3] * T(B[3 * c + 1]) + A[r + 6] * T(B[3 * c + 2]);
+}
+
+// y = x + A·b (3×3, 3).
+template <class T, class U>
+MINV_INLINE void mulAdd3(const T* x, const T* A, const U* b, T* y) {
+  for (int r = 0; r < 3; ++r)
+    y[r] = x[r] + A[r] * T(b[0]) + A[r + 3] * T(b[1]) + A[r + 6] * T(b[2]);
+}
+
+// y = A·b (3×3, 3).
+template <class T, class U>
+MINV_INLINE void mul3(const T* A, const U* b, T* y) {
+  for (int r = 0; r < 3; ++r) y[r] = A[r] * T(b[0]) + A[r + 3] * T(b[1]) + A[r + 6] * T(b[2]);
+}
+
+// The joint's pose in its parent's frame, placement · X_J(q_i), into (L, l); a revolute
+// joint's sin and cos come from kin (jointSinCos), its rotation from the split placement.
+template <class T>
+MINV_INLINE void localPose(const Model& model, const VecX<T>& q, const Kinematics<T>& kin, int i,
+                           T* L, T* l) {
+  const Joint& j = model.joint(i);
+  const int o = model.qIdx(i);
+  const double* P = j.placement.R.data();
+  const double* pp = j.placement.p.data();
+  switch (j.type) {
+    case JointType::Revolute: {
+      // P·exp(θ ã) = Pa + cos θ·Pc + sin θ·Ps; the joint does not move the origin.
+      const RevoluteSplit<T>& r = kin.split[i];
+      const T c = kin.cosq(o), s = kin.sinq(o);
+      for (int k = 0; k < 9; ++k) L[k] = r.Pa.data()[k] + c * r.Pc.data()[k] + s * r.Ps.data()[k];
+      for (int k = 0; k < 3; ++k) l[k] = T(pp[k]);
+      return;
     }
+    case JointType::Prismatic: {
+      // The rotation is the placement's; the origin moves by q along P·a.
+      const T d[3] = {T(j.axis(0)) * q(o), T(j.axis(1)) * q(o), T(j.axis(2)) * q(o)};
+      for (int k = 0; k < 9; ++k) L[k] = T(P[k]);
+      const T p0[3] = {T(pp[0]), T(pp[1]), T(pp[2])};
+      mulAdd3(p0, L, d, l);
+      return;
+    }
+    case JointType::Spherical: {
+      const Mat3<T> J = quatToRotation<T>(q(o), q(o + 1), q(o + 2), q(o + 3));
+      const Mat3<T> Pt = j.placement.R.cast<T>();
+      mul33(Pt.data(), J.data(), L);
+      for (int k = 0; k < 3; ++k) l[k] = T(pp[k]);
+      return;
+    }
+    case JointType::Floating:
+    default: {
+      const Mat3<T> J = quatToRotation<T>(q(o + 3), q(o + 4), q(o + 5), q(o + 6));
+      const Mat3<T> Pt = j.placement.R.cast<T>();
+      mul33(Pt.data(), J.data(), L);
+      const T p0[3] = {T(pp[0]), T(pp[1]), T(pp[2])};
+      mulAdd3(p0, Pt.data(), q.data() + o, l);
+      return;
+    }
+  }
+}
+
+// S_i from body i's world pose (R, p): the joint's body-frame subspace in world coordinates,
+// [R e; p × R e] for a rotation axis e, [0; R e] for a translation.
+template <class T>
+MINV_INLINE void motionSubspace(const Model& model, const T* R, const T* p, Kinematics<T>& kin,
+                                int i) {
+  const Joint& j = model.joint(i);
+  T* S = kin.S.col(model.vIdx(i)).data();
+  // One column of S from a world direction w: a rotation about it through p, or a translation.
+  auto column = [&](const T* w, bool rotation, T* s) {
+    if (!rotation) {
+      s[0] = s[1] = s[2] = T(0);
+      s[3] = w[0], s[4] = w[1], s[5] = w[2];
+      return;
+    }
+    s[0] = w[0], s[1] = w[1], s[2] = w[2];
+    s[3] = p[1] * w[2] - p[2] * w[1];
+    s[4] = p[2] * w[0] - p[0] * w[2];
+    s[5] = p[0] * w[1] - p[1] * w[0];
   };
+  T w[3];
+  switch (j.type) {
+    case JointType::Revolute:
+    case JointType::Prismatic:
+      mul3(R, j.axis.data(), w);
+      column(w, j.type == JointType::Revolute, S);
+      break;
+    case JointType::Spherical:
+      for (int c = 0; c < 3; ++c) column(R + 3 * c, true, S + 6 * c);
+      break;
+    case JointType::Floating:
+      for (int c = 0; c < 3; ++c) {
+        column(R + 3 * c, true, S + 6 * c);
+        column(R + 3 * c, false, S + 6 * (3 + c));
+      }
+      break;
+  }
+}
+
+// I_i about the world origin from body i's world pose (R, p), as mcI (core/spatial.hpp) with
+// m, c = p + R·c_body and R Ī Rᵀ: R Ī, then one triangle of (R Ī) Rᵀ, the only one mcI reads.
+template <class T>
+MINV_INLINE void worldInertia(const Model& model, const T* R, const T* p, Kinematics<T>& kin,
+                              int i) {
+  const Body& b = model.body(i);
+  T c[3], RI[9], Ic[9];
+  mulAdd3(p, R, b.com.data(), c);
+  mul33(R, b.inertia.data(), RI);
+  for (int j = 0; j < 3; ++j)
+    for (int r = j; r < 3; ++r)
+      Ic[r + 3 * j] = RI[r] * R[j] + RI[r + 3] * R[j + 3] + RI[r + 6] * R[j + 6];
+  mcI<T>(T(b.mass), c, Ic, kin.I[i].data());
+}
+
+// ⁰X_i = ⁰X_λ(i) · (L, l) for a body with a parent: R = R_λ L, p = p_λ + R_λ l.
+template <class T>
+MINV_INLINE void composePose(const T* Rp, const T* pp, const T* L, const T* l, T* R, T* p) {
+  mul33(Rp, L, R);
+  mulAdd3(pp, Rp, l, p);
+}
+
+// Stages "spatial axes" (poses ⁰X_i and world-frame motion subspaces S_i) and "isolated
+// inertias" (I_i), one mark each per body. On one thread each body is done whole, parents
+// first, its parent's pose still in registers along a chain. With threads > 1 (and no marks)
+// the per-body steps are shared among OpenMP threads and only the composition along the tree
+// runs in order.
+template <class T, class Mark>
+void computeKinematics(const Model& model, const VecX<T>& q, Kinematics<T>& kin, Mark&& mark,
+                       int threads = 1) {
   const int nb = model.nb();
+  const bool each_root = kin.origin == Origin::EachRoot;
+  // sin and cos of the joint angles, all at once
+  jointSinCos(model, q, kin);
   if (threads > 1 && std::is_same_v<std::decay_t<Mark>, NoMark>) {
 #pragma omp parallel num_threads(threads)
     {
+      // each joint's pose in its parent's frame
 #pragma omp for schedule(static)
-      for (int i = 0; i < nb; ++i) local(i);
+      for (int i = 0; i < nb; ++i)
+        localPose(model, q, kin, i, kin.X[i].R.data(), kin.X[i].p.data());
+        // the world poses, parents first
 #pragma omp single
-      for (int i = 0; i < nb; ++i) compose(i);
+      for (int i = 0; i < nb; ++i) {
+        Pose<T>& X = kin.X[i];
+        if (model.parent(i) < 0) {
+          if (each_root) X.p.setZero();
+          continue;
+        }
+        const Pose<T>& P = kin.X[model.parent(i)];
+        T R[9], p[3];
+        composePose(P.R.data(), P.p.data(), X.R.data(), X.p.data(), R, p);
+        X.R = Eigen::Map<const Mat3<T>>(R);
+        X.p = Eigen::Map<const Vec3<T>>(p);
+      }
+      // S_i and I_i
 #pragma omp for schedule(static)
-      for (int i = 0; i < nb; ++i) axes(i);
+      for (int i = 0; i < nb; ++i) {
+        motionSubspace(model, kin.X[i].R.data(), kin.X[i].p.data(), kin, i);
+        worldInertia(model, kin.X[i].R.data(), kin.X[i].p.data(), kin, i);
+      }
     }
     return;
   }
+  T R[9] = {}, p[3] = {};  // ⁰X of the body just done
   for (int i = 0; i < nb; ++i) {
-    local(i);
-    compose(i);
-    axes(i);
+    const int parent = model.parent(i);
+    // the joint's pose in its parent's frame
+    T L[9], l[3];
+    localPose(model, q, kin, i, L, l);
+    // ⁰X_i = ⁰X_λ(i) · (L, l); along a chain the parent's pose is the one just done
+    T Ri[9], pi[3];
+    if (parent == i - 1 && parent >= 0) {
+      composePose(R, p, L, l, Ri, pi);
+    } else if (parent >= 0) {
+      composePose(kin.X[parent].R.data(), kin.X[parent].p.data(), L, l, Ri, pi);
+    } else {
+      for (int k = 0; k < 9; ++k) Ri[k] = L[k];
+      for (int k = 0; k < 3; ++k) pi[k] = each_root ? T(0) : l[k];
+    }
+    for (int k = 0; k < 9; ++k) R[k] = Ri[k], kin.X[i].R.data()[k] = Ri[k];
+    for (int k = 0; k < 3; ++k) p[k] = pi[k], kin.X[i].p.data()[k] = pi[k];
+    // S_i
+    motionSubspace(model, Ri, pi, kin, i);
     mark("spatial axes");
-  }
-}
-
-// Stage "isolated inertias": I_i = mcI(m, ⁰c_i, R Ī Rᵀ) about the world origin; a mark per body.
-// Bodies are independent: with threads > 1 (and no marks) they are shared among OpenMP threads.
-template <class T, class Mark = NoMark>
-void worldInertias(const Model& model, Kinematics<T>& kin, Mark&& mark = {}, int threads = 1) {
-  auto body = [&](int i) {
-    const Body& b = model.body(i);
-    const Pose<T>& X = kin.X[i];
-    const Vec3<T> c = X.p + X.R * b.com.cast<T>();
-    // R Ī Rᵀ: R Ī, then one triangle of (R Ī) Rᵀ; mcI reads that triangle only.
-    const Mat3<T> RI = X.R * b.inertia.cast<T>();
-    Mat3<T> Ic;
-    for (int j = 0; j < 3; ++j)
-      for (int r = j; r < 3; ++r) Ic(r, j) = RI.row(r).dot(X.R.row(j));
-    mcI<T>(T(b.mass), c, Ic, kin.I[i]);
-  };
-  if (threads > 1 && std::is_same_v<std::decay_t<Mark>, NoMark>) {
-#pragma omp parallel for schedule(static) num_threads(threads)
-    for (int i = 0; i < model.nb(); ++i) body(i);
-    return;
-  }
-  for (int i = 0; i < model.nb(); ++i) {
-    body(i);
+    // I_i
+    worldInertia(model, Ri, pi, kin, i);
     mark("isolated inertias");
   }
 }
 
-// Both stages; the second on `threads` OpenMP threads.
+// Both stages without marks, on `threads` OpenMP threads.
 template <class T>
 void computeKinematics(const Model& model, const VecX<T>& q, Kinematics<T>& kin, int threads = 1) {
-  forwardKinematics(model, q, kin, NoMark{}, threads);
-  worldInertias(model, kin, NoMark{}, threads);
+  computeKinematics(model, q, kin, NoMark{}, threads);
 }
 
 }  // namespace minv

@@ -13,6 +13,14 @@
 
 namespace minv {
 
+// Small per-body steps that a caller's loop must inline whole (GCC and Clang otherwise leave
+// some out of line in long loops, and their results then go through memory).
+#if defined(__GNUC__)
+#define MINV_INLINE __attribute__((always_inline)) inline
+#else
+#define MINV_INLINE inline
+#endif
+
 template <class T>
 using Vec3 = Eigen::Matrix<T, 3, 1>;
 template <class T>
@@ -59,28 +67,31 @@ Mat6<T> crossF(const Vec6<T>& v) {
 // c̃ c̃ᵀ = |c|² 1 − c cᵀ: the top-left block is Ī_c + (hᵀc) 1 − h cᵀ (symmetric: 6 products),
 // the off-diagonal blocks are h̃ and h̃ᵀ. 12 mul, 12 add; reads Ī_c's lower triangle only.
 template <class T>
-void mcI(const T& m, const Vec3<T>& c, const Mat3<T>& Ic, Mat6<T>& I) {
-  const Vec3<T> h = m * c;
-  const T hc = h.dot(c);
+MINV_INLINE void mcI(const T& m, const T* c, const T* Ic, T* I) {
+  // On plain arrays, column-major (Eigen's order): c 3, Ī_c 3×3, I 6×6.
+  const T h[3] = {m * c[0], m * c[1], m * c[2]};
+  const T hc = h[0] * c[0] + h[1] * c[1] + h[2] * c[2];
   // Ī_c + m c̃ c̃ᵀ, one triangle then mirrored.
   for (int j = 0; j < 3; ++j)
     for (int i = j; i < 3; ++i) {
-      T x = Ic(i, j) - h(i) * c(j);
+      T x = Ic[i + 3 * j] - h[i] * c[j];
       if (i == j) x += hc;
-      I(i, j) = x;
-      I(j, i) = x;
+      I[i + 6 * j] = x;
+      I[j + 6 * i] = x;
     }
-  // m c̃, m c̃ᵀ, m 1.
-  const Mat3<T> H = skew<T>(h);
-  I.template topRightCorner<3, 3>() = H;
-  I.template bottomLeftCorner<3, 3>() = H.transpose();
-  I.template bottomRightCorner<3, 3>().setZero();
-  I.template bottomRightCorner<3, 3>().diagonal().setConstant(m);
+  // m c̃ (top right), m c̃ᵀ (bottom left), m 1.
+  const T H[9] = {T(0), h[2], -h[1], -h[2], T(0), h[0], h[1], -h[0], T(0)};  // h̃, column-major
+  for (int j = 0; j < 3; ++j)
+    for (int i = 0; i < 3; ++i) {
+      I[i + 6 * (3 + j)] = H[i + 3 * j];
+      I[(3 + j) + 6 * i] = H[i + 3 * j];
+      I[(3 + i) + 6 * (3 + j)] = i == j ? m : T(0);
+    }
 }
 template <class T>
 Mat6<T> mcI(const T& m, const Vec3<T>& c, const Mat3<T>& Ic) {
   Mat6<T> I;
-  mcI<T>(m, c, Ic, I);
+  mcI<T>(m, c.data(), Ic.data(), I.data());
   return I;
 }
 

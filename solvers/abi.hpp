@@ -461,8 +461,7 @@ void abiPipeline(const Model& model, const Eigen::VectorXd& q, int m, Mark&& mar
   Articulated<T> art(model);
   AbiWorkspace<T> ws(model);
   const VecX<T> qt = q.cast<T>();
-  forwardKinematics<T>(model, qt, kin, mark);
-  worldInertias<T>(model, kin, mark);
+  computeKinematics<T>(model, qt, kin, mark);
   articulatedInertias<T>(model, kin, art);
   mark("articulated inertias");
   MatX<T> X(model.nv(), m > 0 ? m : model.nv());

@@ -18,8 +18,7 @@ inline void countCrbaFront(const Model& model, const Eigen::VectorXd& q, MatX<Co
   Kinematics<Counted> kin(model, Origin::EachRoot);
   std::vector<Mat6<Counted>> Ic(model.nb());
   const VecX<Counted> qc = q.cast<Counted>();
-  forwardKinematics<Counted>(model, qc, kin, mark);
-  worldInertias<Counted>(model, kin, mark);
+  computeKinematics<Counted>(model, qc, kin, mark);
   compositeInertias<Counted>(model, kin, Ic);
   mark("composite inertias");
   crbaMassMatrix<Counted>(model, kin, Ic, H, mark);
