@@ -71,16 +71,20 @@ struct Kinematics {
   }
 };
 
-// Rotation of a unit quaternion (w, x, y, z); normalises first.
+// Rotation of the quaternion (w, x, y, z) after normalising it: with s = 2/|q|², entries such
+// as 1 − s(y² + z²) and s(xy − wz), which is the unit quaternion's rotation without its
+// square root. 16 mul, 1 div.
 template <class T>
-Mat3<T> quatToRotation(T w, T x, T y, T z) {
-  using std::sqrt;
-  const T inv = T(1) / sqrt(w * w + x * x + y * y + z * z);
-  w = w * inv, x = x * inv, y = y * inv, z = z * inv;
+MINV_INLINE Mat3<T> quatToRotation(T w, T x, T y, T z) {
+  const T s = T(2) / (w * w + x * x + y * y + z * z);
+  const T xs = x * s, ys = y * s, zs = z * s;
+  const T wx = w * xs, wy = w * ys, wz = w * zs;
+  const T xx = x * xs, xy = x * ys, xz = x * zs;
+  const T yy = y * ys, yz = y * zs, zz = z * zs;
   Mat3<T> R;
-  R << T(1) - T(2) * (y * y + z * z), T(2) * (x * y - w * z), T(2) * (x * z + w * y),
-      T(2) * (x * y + w * z), T(1) - T(2) * (x * x + z * z), T(2) * (y * z - w * x),
-      T(2) * (x * z - w * y), T(2) * (y * z + w * x), T(1) - T(2) * (x * x + y * y);
+  R << T(1) - (yy + zz), xy - wz, xz + wy,  //
+      xy + wz, T(1) - (xx + zz), yz - wx,   //
+      xz - wy, yz + wx, T(1) - (xx + yy);
   return R;
 }
 
