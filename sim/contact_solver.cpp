@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <stdexcept>
 #include <string>
@@ -61,16 +62,36 @@ ContactResiduals solveBoundQP(const Eigen::MatrixXd& G, const Eigen::VectorXd& g
 
 namespace {
 
+// The linearised cone of (μ, k): its generators W (3×k), the facet normals of the polygon
+// μ fn conv{t_j} (at angles 2π(j + ½)/k) and its inradius cos(π/k). Built once per thread and
+// kept while (μ, k) repeat, as they do step after step: its sines and cosines are not free.
+struct Cone {
+  double mu = std::numeric_limits<double>::quiet_NaN();
+  int k = 0;
+  Eigen::MatrixXd W;
+  std::vector<double> fc, fs;
+  double inradius = 0;
+};
+const Cone& cone(double mu, int k) {
+  thread_local Cone c;
+  if (c.mu == mu && c.k == k) return c;
+  c.W = coneGenerators(mu, k);
+  c.fc.resize(k), c.fs.resize(k);
+  for (int j = 0; j < k; ++j) {
+    const double th = 2 * std::numbers::pi * (j + 0.5) / k;
+    c.fc[j] = std::cos(th), c.fs[j] = std::sin(th);
+  }
+  c.inradius = std::cos(std::numbers::pi / k);
+  c.mu = mu, c.k = k;
+  return c;
+}
+
 // The residuals measured on λ and v⁺ = Aλ + v0 themselves: penetration and cone.
 void residualsOnLambda(const ContactProblem& p, const Eigen::VectorXd& vplus, ContactSolution& s) {
   const int nc = static_cast<int>(p.b.size()), k = p.k;
-  const double inradius = std::cos(std::numbers::pi / k);
-  // The facet normals of the polygon μ fn conv{t_j}: at angles 2π(j + ½)/k.
-  std::vector<double> fc(k), fs(k);
-  for (int j = 0; j < k; ++j) {
-    const double th = 2 * std::numbers::pi * (j + 0.5) / k;
-    fc[j] = std::cos(th), fs[j] = std::sin(th);
-  }
+  const Cone& cn = cone(p.mu, k);
+  const double inradius = cn.inradius;
+  const std::vector<double>&fc = cn.fc, &fs = cn.fs;
   for (int c = 0; c < nc; ++c) {
     s.residuals.penetration = std::max(s.residuals.penetration, -(vplus(3 * c) + p.b(c)));
     const double fn = s.lambda(3 * c);
@@ -164,7 +185,7 @@ ContactSolution solveMaxDissipation(const ContactProblem& p, const Eigen::Vector
                                     const ContactSolverOptions& o) {
   checkProblem(p);
   const int nc = static_cast<int>(p.b.size()), k = p.k, m = k * nc;
-  const Eigen::MatrixXd W = coneGenerators(p.mu, k);
+  const Eigen::MatrixXd& W = cone(p.mu, k).W;
   const double* Wd = W.data();  // W(r, j) = Wd[3 j + r]
   const int inner = std::max(1, o.inner_sweeps);
   ContactSolution s;

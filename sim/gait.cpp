@@ -5,6 +5,8 @@
 #include <cmath>
 #include <numbers>
 
+#include "core/sincos.hpp"
+
 namespace minv::sim {
 
 namespace {
@@ -30,14 +32,23 @@ void CentipedeGait::operator()(double t, const Eigen::VectorXd& q, const Eigen::
       clipNorm(tau.segment<3>(vi), o_.max_body);
     }
   }
-  for (int l = 0; l < c_.legs(); ++l) {
+  // Every leg's phase φ, then its hip target R_d = Rz(yaw)·Rx(lift) as the quaternion
+  // (cz cx, cz sx, sz sx, sz cx) of the half angles: the sines and cosines of all legs at once.
+  const int legs = c_.legs();
+  for (int l = 0; l < legs; ++l)
+    angle_[l] = 2 * std::numbers::pi * (o_.frequency * t - c_.leg_segment[l] / o_.wave) +
+                (Centipede::side(l) < 0 ? std::numbers::pi : 0.0);
+  sinCos(angle_.data(), legs, sin_.data(), cos_.data());
+  for (int l = 0; l < legs; ++l) {
     const double side = Centipede::side(l);
-    const double phi = 2 * std::numbers::pi * (o_.frequency * t - c_.leg_segment[l] / o_.wave) +
-                       (side < 0 ? std::numbers::pi : 0.0);
-    const double yaw = ramp * side * o_.swing * std::sin(phi);
-    const double lift = ramp * side * o_.lift * std::max(0.0, -std::cos(phi));
-    const Eigen::Quaterniond Qd = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
-                                  Eigen::AngleAxisd(lift, Eigen::Vector3d::UnitX());
+    const double yaw = ramp * side * o_.swing * sin_[l];
+    const double lift = ramp * side * o_.lift * std::max(0.0, -cos_[l]);
+    angle_[l] = 0.5 * yaw, angle_[legs + l] = 0.5 * lift;
+  }
+  sinCos(angle_.data(), 2 * legs, sin_.data(), cos_.data());
+  for (int l = 0; l < legs; ++l) {
+    const double cz = cos_[l], sz = sin_[l], cx = cos_[legs + l], sx = sin_[legs + l];
+    const Eigen::Quaterniond Qd(cz * cx, cz * sx, sz * sx, sz * cx);
     // Hip.
     const int hb = c_.upper_body[l], qh = m.qIdx(hb), vh = m.vIdx(hb);
     const Eigen::Quaterniond Q(q(qh), q(qh + 1), q(qh + 2), q(qh + 3));

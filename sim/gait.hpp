@@ -31,13 +31,16 @@ struct GaitOptions {
 
 class CentipedeGait {
  public:
-  CentipedeGait(const Centipede& c, GaitOptions o = {}) : c_(c), o_(o) {}
+  CentipedeGait(const Centipede& c, GaitOptions o = {})
+      : c_(c), o_(o), angle_(2 * c.legs()), sin_(2 * c.legs()), cos_(2 * c.legs()) {}
   void operator()(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& v,
                   Eigen::VectorXd& tau) const;
 
  private:
   const Centipede& c_;
   GaitOptions o_;
+  // Scratch for the legs' angles and their sines and cosines (all legs in one call).
+  mutable std::vector<double> angle_, sin_, cos_;
 };
 
 // One contact point at every leg tip of the centipede, in leg order.
