@@ -124,6 +124,18 @@ inline void generatorVelocities(const double* Wd, const double* u, const Eigen::
   for (int j = 0; j < k; ++j) g[j] = Wd[3 * j] * un + Wd[3 * j + 1] * u1 + Wd[3 * j + 2] * u2;
 }
 
+// λ_c = W β_c for every contact c.
+void lambdaFromBeta(const double* Wd, const Eigen::VectorXd& beta, int k, Eigen::VectorXd& lambda) {
+  const int nc = static_cast<int>(lambda.size()) / 3;
+  for (int c = 0; c < nc; ++c) {
+    const double* b = beta.data() + k * c;
+    double l0 = 0, l1 = 0, l2 = 0;
+    for (int j = 0; j < k; ++j)
+      l0 += Wd[3 * j] * b[j], l1 += Wd[3 * j + 1] * b[j], l2 += Wd[3 * j + 2] * b[j];
+    lambda(3 * c) = l0, lambda(3 * c + 1) = l1, lambda(3 * c + 2) = l2;
+  }
+}
+
 // u += a0 d0 + a1 d1 + a2 d2 over n entries: the sweep's one long loop, compiled for AVX2 and
 // AVX-512 beside the portable build's SSE and chosen at load time by the CPU (GCC's
 // target_clones; the same arithmetic on every path, FMA contraction aside).
@@ -198,13 +210,24 @@ ContactSolution solveMaxDissipation(const ContactProblem& p, const Eigen::Vector
   Eigen::MatrixXd Gd(k, m);
   Eigen::VectorXd Rd(m);
   for (int c = 0; c < nc; ++c) {
-    Gd.middleCols(k * c, k).noalias() = W.transpose() * (p.A.block<3, 3>(3 * c, 3 * c) * W).eval();
+    // A_cc W (3×k), then Wᵀ (A_cc W), in plain loops (k ≤ kMaxGenerators, on the stack).
+    double aw[3 * kMaxGenerators];
+    for (int j = 0; j < k; ++j)
+      for (int r = 0; r < 3; ++r)
+        aw[3 * j + r] = p.A(3 * c + r, 3 * c) * Wd[3 * j] +
+                        p.A(3 * c + r, 3 * c + 1) * Wd[3 * j + 1] +
+                        p.A(3 * c + r, 3 * c + 2) * Wd[3 * j + 2];
+    double* G = Gd.data() + k * k * c;
+    for (int j = 0; j < k; ++j)
+      for (int i = 0; i < k; ++i)
+        G[k * j + i] =
+            Wd[3 * i] * aw[3 * j] + Wd[3 * i + 1] * aw[3 * j + 1] + Wd[3 * i + 2] * aw[3 * j + 2];
     for (int j = 0; j < k; ++j) {
-      const double d = Gd(j, k * c + j);
+      const double d = G[k * j + j];
       Rd(k * c + j) = d > 0 ? 1 / d : 0.0;
     }
-    s.lambda.segment<3>(3 * c).noalias() = W * s.beta.segment(k * c, k);
   }
+  lambdaFromBeta(Wd, s.beta, k, s.lambda);
   // u = Aλ + v0: the contact velocities, kept up to date as λ changes.
   Eigen::VectorXd u = p.v0;
   const bool warm = s.beta.any();
@@ -228,8 +251,7 @@ ContactSolution solveMaxDissipation(const ContactProblem& p, const Eigen::Vector
       contactSweep<Eigen::Dynamic>(p, Wd, Gd.data(), Rd.data(), inner, s, u);
     // No drift from the incremental updates.
     if (it % 64 == 0) {
-      for (int c = 0; c < nc; ++c)
-        s.lambda.segment<3>(3 * c).noalias() = W * s.beta.segment(k * c, k);
+      lambdaFromBeta(Wd, s.beta, k, s.lambda);
       u = p.v0;
       u.noalias() += p.A * s.lambda;
     }
@@ -240,7 +262,7 @@ ContactSolution solveMaxDissipation(const ContactProblem& p, const Eigen::Vector
     }
   }
   // λ = Wβ and v⁺ = Aλ + v0 afresh; the KKT residual and complementarity on them.
-  for (int c = 0; c < nc; ++c) s.lambda.segment<3>(3 * c).noalias() = W * s.beta.segment(k * c, k);
+  lambdaFromBeta(Wd, s.beta, k, s.lambda);
   u = p.v0;
   u.noalias() += p.A * s.lambda;
   r.kkt = kkt();
