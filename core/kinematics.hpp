@@ -49,7 +49,7 @@ struct Kinematics {
   Mat6N<T> S;              // motion subspaces in world coordinates, column k for DOF k
   std::vector<Mat6<T>> I;  // body spatial inertias in world coordinates
   Origin origin;           // World, or each tree's root joint
-  VecX<T> sinq, cosq;      // sin and cos of each revolute joint's angle, at its coordinate
+  VecX<T> sinq, cosq;      // on doubles, sin and cos of each coordinate of q (jointSinCos)
   std::vector<RevoluteSplit<T>> split;  // per body, for revolute joints
 
   explicit Kinematics(const Model& m, Origin o = Origin::World)
@@ -57,8 +57,8 @@ struct Kinematics {
         S(Mat6N<T>::Zero(6, m.nv())),
         I(m.nb()),
         origin(o),
-        sinq(VecX<T>::Zero(m.nq())),
-        cosq(VecX<T>::Zero(m.nq())),
+        sinq(VecX<T>::Zero(std::is_same_v<T, double> ? m.nq() : 0)),
+        cosq(VecX<T>::Zero(std::is_same_v<T, double> ? m.nq() : 0)),
         split(m.nb()) {
     for (int i = 0; i < m.nb(); ++i) {
       const Joint& j = m.joint(i);
@@ -88,23 +88,15 @@ MINV_INLINE Mat3<T> quatToRotation(T w, T x, T y, T z) {
   return R;
 }
 
-// sin and cos of every revolute joint's angle into kin.sinq, kin.cosq. On doubles every
-// coordinate goes through one vectorised loop (core/sincos.hpp; the others are not read); on
-// any other scalar (the counting one) only the revolute angles, one sin and one cos each.
+// On doubles, sin and cos of every coordinate of q into kin.sinq, kin.cosq, in one vectorised
+// loop (core/sincos.hpp; only the revolute joints' are read). Any other scalar (the counting
+// one, long double) takes each joint's sin and cos at its body instead (localPose), so that
+// counts stay per body.
 template <class T>
-void jointSinCos(const Model& model, const VecX<T>& q, Kinematics<T>& kin) {
-  using std::cos;
-  using std::sin;
+void jointSinCos(const VecX<T>& q, Kinematics<T>& kin) {
   if constexpr (std::is_same_v<T, double>) {
     const auto n = std::min(q.size(), kin.sinq.size());
     sinCos(q.data(), static_cast<int>(n), kin.sinq.data(), kin.cosq.data());
-  } else {
-    for (int i = 0; i < model.nb(); ++i)
-      if (model.joint(i).type == JointType::Revolute) {
-        const int o = model.qIdx(i);
-        kin.sinq(o) = sin(q(o));
-        kin.cosq(o) = cos(q(o));
-      }
   }
 }
 
@@ -134,7 +126,8 @@ MINV_INLINE void mul3(const T* A, const U* b, T* y) {
 }
 
 // The joint's pose in its parent's frame, placement · X_J(q_i), into (L, l); a revolute
-// joint's sin and cos come from kin (jointSinCos), its rotation from the split placement.
+// joint's sin and cos come from kin on doubles (jointSinCos), its rotation from the split
+// placement.
 template <class T>
 MINV_INLINE void localPose(const Model& model, const VecX<T>& q, const Kinematics<T>& kin, int i,
                            T* L, T* l) {
@@ -146,7 +139,13 @@ MINV_INLINE void localPose(const Model& model, const VecX<T>& q, const Kinematic
     case JointType::Revolute: {
       // P·exp(θ ã) = Pa + cos θ·Pc + sin θ·Ps; the joint does not move the origin.
       const RevoluteSplit<T>& r = kin.split[i];
-      const T c = kin.cosq(o), s = kin.sinq(o);
+      using std::cos;
+      using std::sin;
+      T c, s;
+      if constexpr (std::is_same_v<T, double>)
+        c = kin.cosq(o), s = kin.sinq(o);
+      else
+        c = cos(q(o)), s = sin(q(o));
       for (int k = 0; k < 9; ++k) L[k] = r.Pa.data()[k] + c * r.Pc.data()[k] + s * r.Ps.data()[k];
       for (int k = 0; k < 3; ++k) l[k] = T(pp[k]);
       return;
@@ -249,7 +248,7 @@ void computeKinematics(const Model& model, const VecX<T>& q, Kinematics<T>& kin,
   const int nb = model.nb();
   const bool each_root = kin.origin == Origin::EachRoot;
   // sin and cos of the joint angles, all at once
-  jointSinCos(model, q, kin);
+  jointSinCos(q, kin);
   if (threads > 1 && std::is_same_v<std::decay_t<Mark>, NoMark>) {
 #pragma omp parallel num_threads(threads)
     {
