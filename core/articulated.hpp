@@ -47,25 +47,16 @@ void forJointSize(int k, Step&& step) {
 template <class T, int K>
 using MatJ = Eigen::Matrix<T, K, K, 0, K == Eigen::Dynamic ? 6 : K, K == Eigen::Dynamic ? 6 : K>;
 
-// Inverse of a small symmetric positive-definite k×k matrix (k ≤ 6) by Cholesky, D = L Lᵀ
-// (k = 3: by the adjugate); Dinv is k×k on entry. K: k at compile time (or Eigen::Dynamic).
+// Inverse of a small symmetric positive-definite k×k matrix (k ≤ 6) by Cholesky, D = L Lᵀ;
+// Dinv is k×k on entry. K: k at compile time (or Eigen::Dynamic). (The 3×3 adjugate, without
+// square roots, was tried: its error grows as κ² where Cholesky's grows as κ, 4e-8 against
+// 5e-12 on a light spherical body above a heavy sliding child.)
 template <class T, int K = Eigen::Dynamic, class In, class Out>
 void spdInverse(const In& D, Out&& Dinv) {
   using std::sqrt;
   const int k = K == Eigen::Dynamic ? static_cast<int>(D.rows()) : K;
   if (k == 1) {
     Dinv(0, 0) = T(1) / D(0, 0);
-    return;
-  }
-  if constexpr (K == 3) {
-    // 3×3: the adjugate over the determinant (no square root; 21 mul, 1 div).
-    const T a = D(0, 0), b = D(1, 0), c = D(2, 0), d = D(1, 1), e = D(2, 1), f = D(2, 2);
-    const T A = d * f - e * e, B = c * e - b * f, C = b * e - c * d;
-    const T r = T(1) / (a * A + b * B + c * C);
-    Dinv(0, 0) = A * r, Dinv(1, 1) = (a * f - c * c) * r, Dinv(2, 2) = (a * d - b * b) * r;
-    Dinv(1, 0) = Dinv(0, 1) = B * r;
-    Dinv(2, 0) = Dinv(0, 2) = C * r;
-    Dinv(2, 1) = Dinv(1, 2) = (b * c - a * e) * r;
     return;
   }
   // Factor D = L Lᵀ; keep 1/L_jj.

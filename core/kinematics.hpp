@@ -43,6 +43,7 @@ struct RevoluteSplit {
   Mat3<T> Pa = Mat3<T>::Zero(), Pc = Mat3<T>::Zero(), Ps = Mat3<T>::Zero();
 };
 
+// Built for one model (its revolute splits are that model's): not to be reused for another.
 template <class T>
 struct Kinematics {
   std::vector<Pose<T>> X;  // body i's pose in the world

@@ -272,8 +272,7 @@ def main():
                              f"{1e3 * r['best_total']:.2f} | {1e3 * r['lapack_total']:.2f} | "
                              f"{r['total']:.1f}× | {r['matrices']:.1f}× | {mj} | {two} |")
             lines += ["", "The two-thread column (`minv simulate sweep --threads 2`, points "
-                      "`<path>@2`) splits kinematics (from 1024 bodies: the centipede at S = "
-                      "250 only), the test-impulse columns and the contact-inertia pair blocks "
+                      "`<path>@2`) splits the test-impulse columns and the contact-inertia pair blocks "
                       "of at least 16384 entries (none in the centipede, whose blocks pair one "
                       "subtree with at most 6 directions: contact-inertia@2 runs the same work "
                       "as one thread plus the OpenMP start-up); the articulated pass, ABA and "

@@ -64,7 +64,8 @@ namespace {
 
 // The linearised cone of (μ, k): its generators W (3×k), the facet normals of the polygon
 // μ fn conv{t_j} (at angles 2π(j + ½)/k) and its inradius cos(π/k). Built once per thread and
-// kept while (μ, k) repeat, as they do step after step: its sines and cosines are not free.
+// kept while (μ, k) repeat, as they do step after step: its sines and cosines are not free. A
+// reference to it stays valid until the next cone() call on the thread with another (μ, k).
 struct Cone {
   double mu = std::numeric_limits<double>::quiet_NaN();
   int k = 0;
@@ -87,9 +88,9 @@ const Cone& cone(double mu, int k) {
 }
 
 // The residuals measured on λ and v⁺ = Aλ + v0 themselves: penetration and cone.
-void residualsOnLambda(const ContactProblem& p, const Eigen::VectorXd& vplus, ContactSolution& s) {
+void residualsOnLambda(const ContactProblem& p, const Cone& cn, const Eigen::VectorXd& vplus,
+                       ContactSolution& s) {
   const int nc = static_cast<int>(p.b.size()), k = p.k;
-  const Cone& cn = cone(p.mu, k);
   const double inradius = cn.inradius;
   const std::vector<double>&fc = cn.fc, &fs = cn.fs;
   for (int c = 0; c < nc; ++c) {
@@ -197,8 +198,8 @@ ContactSolution solveMaxDissipation(const ContactProblem& p, const Eigen::Vector
                                     const ContactSolverOptions& o) {
   checkProblem(p);
   const int nc = static_cast<int>(p.b.size()), k = p.k, m = k * nc;
-  const Eigen::MatrixXd& W = cone(p.mu, k).W;
-  const double* Wd = W.data();  // W(r, j) = Wd[3 j + r]
+  const Cone& cn = cone(p.mu, k);  // no other cone() call until the solve returns
+  const double* Wd = cn.W.data();  // W(r, j) = Wd[3 j + r]
   const int inner = std::max(1, o.inner_sweeps);
   ContactSolution s;
   s.beta = beta.size() == m ? Eigen::VectorXd(beta.cwiseMax(0.0)) : Eigen::VectorXd::Zero(m);
@@ -268,7 +269,7 @@ ContactSolution solveMaxDissipation(const ContactProblem& p, const Eigen::Vector
   r.kkt = kkt();
   for (int j = 0; j < m; ++j)
     r.complementarity = std::max(r.complementarity, std::abs(s.beta(j) * g(j)));
-  residualsOnLambda(p, u, s);
+  residualsOnLambda(p, cn, u, s);
   return s;
 }
 
@@ -295,7 +296,7 @@ ContactSolution solveMaxDissipationReference(const ContactProblem& p, const Eige
   for (int c = 0; c < nc; ++c) s.lambda.segment<3>(3 * c) = W * s.beta.segment(k * c, k);
   // Residuals on λ and v⁺ themselves.
   const Eigen::VectorXd vplus = p.A * s.lambda + p.v0;
-  residualsOnLambda(p, vplus, s);
+  residualsOnLambda(p, cone(p.mu, k), vplus, s);
   return s;
 }
 

@@ -39,7 +39,8 @@ class CentipedeGait {
  private:
   const Centipede& c_;
   GaitOptions o_;
-  // Scratch for the legs' angles and their sines and cosines (all legs in one call).
+  // Scratch for the legs' angles and their sines and cosines (all legs in one call): one
+  // gait is not to be called from two threads at once (each walk owns its own).
   mutable std::vector<double> angle_, sin_, cos_;
 };
 

@@ -26,8 +26,10 @@ contactInertiaWide(const Model& model, const Kinematics<double>& kin,
   contactInertia<double>(model, kin, art, bodies, wrenches, ws, A, threads);
 }
 
-// Kinematics and articulated-body inertias on one thread, compiled the same way: scalar 3×3
-// and 6×6 arithmetic per body that FMA and wider registers speed up.
+// Kinematics and articulated-body inertias, compiled the same way: scalar 3×3 and 6×6
+// arithmetic per body that FMA and wider registers speed up. On one thread whatever the
+// simulator's threads (≈ 25 ns per body: splitting it never paid, and a split kinematics ran
+// in the portable build, so the last bits then depended on the thread count).
 __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"), flatten)) void
 articulatedWide(const Model& model, const Eigen::VectorXd& q, Kinematics<double>& kin,
                 Articulated<double>& art) {
@@ -84,10 +86,6 @@ void Simulator::setState(const Eigen::VectorXd& q, const Eigen::VectorXd& v) {
   v_ = v;
 }
 
-// Kinematics is split among threads only from this many bodies: below, the per-body work
-// (≈ 50 ns) does not pay for the region's fork and barriers.
-constexpr int kParallelBodies = 1024;
-
 void Simulator::step() {
   const double h = o_.dt;
   const int k = o_.friction_dirs;
@@ -95,12 +93,7 @@ void Simulator::step() {
   Clock::time_point t0 = Clock::now();
 
   // dynamics: v* = v + h·ABA(q, v, τ).
-  if (model_.nb() >= kParallelBodies && o_.threads > 1) {
-    computeKinematics<double>(model_, q_, kin_, o_.threads);
-    articulatedInertias<double>(model_, kin_, art_);
-  } else {
-    articulatedWide(model_, q_, kin_, art_);
-  }
+  articulatedWide(model_, q_, kin_, art_);
   tau_.setZero();
   if (controller_) controller_(t_, q_, v_, tau_);
   aba(model_, kin_, art_, v_, tau_, o_.gravity, aba_, qdd_);

@@ -58,10 +58,10 @@ struct SimOptions {
   double erp = 0.2;
   std::string path = "abi";
   ContactSolverOptions contact;
-  // OpenMP threads of the stages that split (kinematics from 1024 bodies; the contact-space
-  // matrices: the solver's own threads, test impulses by column, the contact-inertia pair
-  // blocks of at least kParallelEntries by rows); the articulated pass, ABA, the contact solve
-  // and the update stay on one.
+  // OpenMP threads of the stages that split (the contact-space matrices: the solver's own
+  // threads, test impulses by column, the contact-inertia pair blocks of at least
+  // kParallelEntries by rows); kinematics, the articulated pass, ABA, the contact solve and the
+  // update stay on one.
   int threads = 1;
 };
 

@@ -27,7 +27,7 @@ void expectLibm(const std::vector<double>& x, double max_ulps) {
   }
 }
 
-TEST(SinCos, WithinTwoUlpsOfLibmOnJointAngles) {
+TEST(SinCos, WithinThreeUlpsOfLibmOnJointAngles) {
   // Joint angles as the generators draw them, and a wide spread of magnitudes.
   std::mt19937_64 rng(7);
   std::uniform_real_distribution<double> angle(-M_PI, M_PI), unit(-1, 1), exponent(-30, 17);
@@ -35,7 +35,7 @@ TEST(SinCos, WithinTwoUlpsOfLibmOnJointAngles) {
   for (int i = 0; i < 100000; ++i) x.push_back(angle(rng));
   for (int i = 0; i < 100000; ++i)
     x.push_back(std::ldexp(unit(rng), static_cast<int>(exponent(rng))));
-  expectLibm(x, 2.0);
+  expectLibm(x, 3.0);
 }
 
 TEST(SinCos, NearMultiplesOfHalfPi) {
@@ -45,7 +45,7 @@ TEST(SinCos, NearMultiplesOfHalfPi) {
     const double t = k * (M_PI / 2);
     x.insert(x.end(), {t, std::nextafter(t, 1e300), std::nextafter(t, -1e300)});
   }
-  expectLibm(x, 2.0);
+  expectLibm(x, 3.0);
 }
 
 TEST(SinCos, LargeInfiniteAndNanGoToLibm) {
