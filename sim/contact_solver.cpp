@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "sim/clones.hpp"
+
 namespace minv::sim {
 
 Eigen::MatrixXd coneGenerators(double mu, int k) {
@@ -140,9 +142,8 @@ void lambdaFromBeta(const double* Wd, const Eigen::VectorXd& beta, int k, Eigen:
 // u += a0 d0 + a1 d1 + a2 d2 over n entries: the sweep's one long loop, compiled for AVX2 and
 // AVX-512 beside the portable build's SSE and chosen at load time by the CPU (GCC's
 // target_clones; the same arithmetic on every path, FMA contraction aside).
-__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void addThreeColumns(
-    int n, const double* a0, const double* a1, const double* a2, double d0, double d1, double d2,
-    double* u) {
+MINV_CLONES void addThreeColumns(int n, const double* a0, const double* a1, const double* a2,
+                                 double d0, double d1, double d2, double* u) {
   for (int i = 0; i < n; ++i) u[i] += a0[i] * d0 + a1[i] * d1 + a2[i] * d2;
 }
 

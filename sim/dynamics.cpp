@@ -6,6 +6,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "sim/clones.hpp"
+
 namespace minv::sim {
 
 namespace {
@@ -49,10 +51,10 @@ void bodyVelocities(const Model& model, const Kinematics<double>& kin, const Eig
 // Each pass's body step on fixed-size blocks of the joint's K DOFs (forJointSize); compiled
 // (the whole call tree inlined) for AVX-512 and AVX2 beside the portable build, chosen at load
 // time (GCC target_clones).
-__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"), flatten)) void aba(
-    const Model& model, const Kinematics<double>& kin, const Articulated<double>& art,
-    const Eigen::VectorXd& v, const Eigen::VectorXd& tau, const Eigen::Vector3d& gravity,
-    AbaWorkspace& ws, Eigen::VectorXd& qdd) {
+MINV_CLONES_FLAT void aba(const Model& model, const Kinematics<double>& kin,
+                          const Articulated<double>& art, const Eigen::VectorXd& v,
+                          const Eigen::VectorXd& tau, const Eigen::Vector3d& gravity,
+                          AbaWorkspace& ws, Eigen::VectorXd& qdd) {
   const int nb = model.nb();
   // Pass 1: velocities, velocity-product accelerations c_i = V_i × S_i q̇_i, bias forces.
   for (int i = 0; i < nb; ++i) {

@@ -3,6 +3,8 @@
 #include <chrono>
 #include <stdexcept>
 
+#include "sim/clones.hpp"
+
 namespace minv::sim {
 
 namespace {
@@ -18,11 +20,12 @@ double since(Clock::time_point& t0) {
 // and AVX2 beside the portable build and chosen at load time (GCC target_clones): its Θ(m²)
 // pair blocks are products of depth 6 that want FMA and wide vectors. The same code the
 // Counted scalar counts.
-__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"), flatten)) void
-contactInertiaWide(const Model& model, const Kinematics<double>& kin,
-                   const Articulated<double>& art, const std::vector<int>& bodies,
-                   const std::vector<Vec6<double>>& wrenches, ContactInertiaWorkspace<double>& ws,
-                   MatX<double>& A, int threads) {
+MINV_CLONES_FLAT void contactInertiaWide(const Model& model, const Kinematics<double>& kin,
+                                         const Articulated<double>& art,
+                                         const std::vector<int>& bodies,
+                                         const std::vector<Vec6<double>>& wrenches,
+                                         ContactInertiaWorkspace<double>& ws, MatX<double>& A,
+                                         int threads) {
   contactInertia<double>(model, kin, art, bodies, wrenches, ws, A, threads);
 }
 
@@ -30,9 +33,8 @@ contactInertiaWide(const Model& model, const Kinematics<double>& kin,
 // arithmetic per body that FMA and wider registers speed up. On one thread whatever the
 // simulator's threads (≈ 25 ns per body: splitting it never paid, and a split kinematics ran
 // in the portable build, so the last bits then depended on the thread count).
-__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"), flatten)) void
-articulatedWide(const Model& model, const Eigen::VectorXd& q, Kinematics<double>& kin,
-                Articulated<double>& art) {
+MINV_CLONES_FLAT void articulatedWide(const Model& model, const Eigen::VectorXd& q,
+                                      Kinematics<double>& kin, Articulated<double>& art) {
   computeKinematics<double>(model, q, kin);
   articulatedInertias<double>(model, kin, art);
 }

@@ -1,0 +1,16 @@
+// Hot simulator functions compiled for AVX-512 and AVX2 beside the portable build and chosen
+// at load time by the CPU (GCC target_clones; MINV_CLONES_FLAT also inlines the function's
+// whole call tree into each clone). The same source on every path, FMA contraction aside.
+// Sanitizer builds (MINV_NO_CLONES, set by MINV_SANITIZE) and other compilers keep the
+// portable build only: the instrumented clones of a flattened call tree took GCC over ten
+// minutes for one file.
+#pragma once
+
+#if defined(__GNUC__) && !defined(__clang__) && !defined(MINV_NO_CLONES)
+#define MINV_CLONES __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
+#define MINV_CLONES_FLAT \
+  __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"), flatten))
+#else
+#define MINV_CLONES
+#define MINV_CLONES_FLAT
+#endif
