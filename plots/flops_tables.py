@@ -69,7 +69,8 @@ def main():
             "Per-tree constants are not counted, as the model's own are not: among them each "
             "revolute joint's placement split by Rodrigues' formula (core/kinematics.hpp: "
             "P·exp(θã) = Pa + cos θ·Pc + sin θ·Ps, built with the Kinematics object), which "
-            "takes 30 of the 99 multiplications per body that 'spatial axes' had before.", "",
+            "leaves 18 multiplications per body where Rodrigues' formula and the product with "
+            "P take 48.", "",
             table(g["abi"], TABLE1, "Table 1: the Θ(n²) inverse (`abi`)"),
             table(g["naive"], TABLE2, "Table 2: CRBA + naive Cholesky (`naive`)"),
             table(g["lapack"], TABLE2, "Table 2 with LAPACK (`lapack`, factor and inverse as "
