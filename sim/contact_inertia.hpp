@@ -31,8 +31,15 @@
 //
 // Algorithm. Directions are sorted by the preorder position of their body (stable), so that
 // the directions of every subtree occupy a contiguous range [s_i, e_i) and those on body i
-// itself come first. (1) Ω_i top-down, only over bodies with a contact in their subtree, with
+// itself come first. (1) Ω_i top-down where pairs meet and above: at roots, at bodies with
+// contacts of their own and below them or below two children, and at their ancestors; with
 // W = Ω_λ(i) U_i D_i⁻¹, Q = D_i⁻ᵀU_iᵀ W + D_i⁻¹, E = W − ½ S_i Q:  Ω_i = Ω_λ(i) − S_i Eᵀ − E S_iᵀ.
+// A leaf body with contacts (≤ 6 directions, not a root) needs no Ω: by the sum above, its
+// own pairs are f_xᵀ Ω_a f_y = Σ_j (S_jᵀ f_x)ᵀ D_j⁻¹ (S_jᵀ f_y) over the joints j from the
+// leaf up to (excluding) the first body a with Ω, plus the directions propagated to a times
+// Ω_a; the S_jᵀ f are the products the propagation forms anyway. Such a deferred block climbs
+// with its directions and is written at a (the centipede: Ω at the segments only, none on
+// the legs).
 // (2) Bottom-up in reverse preorder, the propagated forces F (m×6, a row per direction) climb
 // the tree. A body with contacts of its own or with two or more children carrying contacts is
 // a branch node: each child's range is brought up to it (F ← F P_c, i.e. f ← Pᵀ_c f, or by a
@@ -42,12 +49,14 @@
 // its own) only composes the pending propagator Φ ← Pᵀ_c Φ (6×6), or, for ≤ 6 directions,
 // applies Pᵀ_c to them at once. Every pair is written exactly once (both triangles).
 //
-// Cost. (1) ≈ 85 mul + 85 add per 1-DOF body on a contact path; (2) per direction one
+// Cost. (1) ≈ 85 mul + 85 add per 1-DOF body with Ω; (2) per direction one
 // propagation per branch node above it (12·k mul + 12·k add for k DOFs, 36 + 30 for a
 // composite), at most 2·(contact bodies) − 1 branch nodes, and ≤ 6 directions through any
 // pass-through body; then 6 mul + 6 add per entry of one triangle of A plus 36 mul + 30 add
-// per direction of the smaller side of each block for F Ω. In all Θ(n + m²) with the Θ(m²)
-// term ≈ 6·m²/2 multiply-adds; the centipede's counts are in paper/contact_inertia_counts.md.
+// per direction of the smaller side of each block for F Ω; a deferred block adds, per joint
+// climbed, k² multiply-adds per direction and k per entry of its triangle. In all Θ(n + m²) with
+// the Θ(m²) term ≈ 6·m²/2 multiply-adds; the centipede's counts are in
+// paper/contact_inertia_counts.md.
 //
 // Contract. kin and art hold the world-frame S, U, D⁻¹ and U D⁻¹ of one configuration
 // (core/kinematics.hpp, core/articulated.hpp); direction r is the unit spatial force (wrench)
@@ -84,10 +93,11 @@ struct ContactInertiaWorkspace {
 
   // Per tree: preorder of the bodies, each body's position in it, children (CSR, by index).
   std::vector<int> order, pre, child_start, children;
-  // Per body, per call: directions on the body, in its subtree, range start; Ω, pending Φ.
-  std::vector<int> own, cnt, start, cursor;
-  std::vector<Mat6<T>> Omega, Phi;
-  std::vector<char> phi_identity;
+  // Per body, per call: directions on the body, in its subtree, range start, children with
+  // directions; Ω, pending Φ; Ω needed; a deferred own block (the K terms summed so far).
+  std::vector<int> own, cnt, start, cursor, kids;
+  std::vector<Mat6<T>> Omega, Phi, Bpend;
+  std::vector<char> phi_identity, need, pend;
   // Per direction: sorted position → input index; F (row per direction), F·Ω, Fᵀ·S scratch.
   std::vector<int> perm;
   RowsX6 F, G, Tk;
@@ -100,9 +110,13 @@ struct ContactInertiaWorkspace {
         cnt(model.nb()),
         start(model.nb()),
         cursor(model.nb()),
+        kids(model.nb()),
         Omega(model.nb()),
         Phi(model.nb()),
+        Bpend(model.nb()),
         phi_identity(model.nb()),
+        need(model.nb()),
+        pend(model.nb()),
         tile(kTile, kTile) {
     const int nb = model.nb();
     // Children lists, in increasing index.
@@ -146,6 +160,29 @@ using Mat6K = Eigen::Matrix<T, 6, K, 0, 6, MaxK<K>::value>;
 template <class T, int K>
 using MatKK = Eigen::Matrix<T, K, K, 0, MaxK<K>::value, MaxK<K>::value>;
 
+// C(x, y) = Σ_{d < D} X(x, d) Y(y, d) (or C −= it) for x < nx, y < ny, with X(x, d) =
+// X[x + lx·d], Y(y, d) = Y[sy·y + sd·d], C(x, y) = C[x + lc·y]; in plain loops along x (the
+// contiguous direction of F's columns): the products with rows of F below, small (3 rows) or
+// long (a subtree's thousand), where Eigen's generic loops over dynamic-height blocks cost
+// more than the arithmetic. D: the inner size at compile time, or Eigen::Dynamic with dd.
+template <int D, bool Sub, class T>
+MINV_INLINE void rowProduct(const T* __restrict X, int lx, const T* __restrict Y, int sy, int sd,
+                            int nx, int ny, T* __restrict C, int lc, int dd = D) {
+  const int n = D == Eigen::Dynamic ? dd : D;
+  for (int y = 0; y < ny; ++y) {
+    T yd[6];
+    for (int d = 0; d < n; ++d) yd[d] = Y[sy * y + sd * d];
+    T* c = C + static_cast<std::ptrdiff_t>(lc) * y;
+    for (int x = 0; x < nx; ++x) {
+      T acc = Sub ? c[x] - X[x] * yd[0] : X[x] * yd[0];
+      for (int d = 1; d < n; ++d)
+        acc = Sub ? acc - X[x + static_cast<std::ptrdiff_t>(lx) * d] * yd[d]
+                  : acc + X[x + static_cast<std::ptrdiff_t>(lx) * d] * yd[d];
+      c[x] = acc;
+    }
+  }
+}
+
 // Ω_i = Ω_λ(i) − S Eᵀ − E Sᵀ with W = Ω_λ(i) U D⁻¹, Q = (U D⁻¹)ᵀ W + D⁻¹, E = W − ½ S Q
 // (Ω_λ(i) = 0 at a root: Ω_i = S D⁻¹ Sᵀ); only one triangle is summed, then mirrored.
 template <class T, int K>
@@ -179,21 +216,28 @@ void omegaStep(std::integral_constant<int, K>, const Kinematics<T>& kin, const A
 template <class T>
 void applyPropagator(const Kinematics<T>& kin, const Articulated<T>& art,
                      ContactInertiaWorkspace<T>& ws, int v, int k, int r0, int L) {
+  T* F = ws.F.data() + r0;
+  T* t = ws.Tk.data();
+  const int lf = static_cast<int>(ws.F.rows()), lt = static_cast<int>(ws.Tk.rows());
+  const T *S = kin.S.data() + 6 * v, *UD = art.UDinv.data() + 6 * v;
   forJointSize(k, [&](auto K) {
     constexpr int N = decltype(K)::value;
-    auto Fr = ws.F.middleRows(r0, L);
-    auto t = ws.Tk.template leftCols<N>(k).topRows(L);
-    t.noalias() = Fr.lazyProduct(kin.S.template middleCols<N>(v, k));
-    Fr.noalias() -= t.lazyProduct(art.UDinv.template middleCols<N>(v, k).transpose());
+    // t = F S (L×k, into Tk), then F −= t (U D⁻¹)ᵀ.
+    rowProduct<6, false>(F, lf, S, 6, 1, L, k, t, lt);
+    rowProduct<N, true>(t, lt, UD, 1, 6, L, 6, F, lf, k);
   });
 }
 
 // f ← Φ f for the rows [r0, r0 + L) of F.
 template <class T>
 void applyComposite(ContactInertiaWorkspace<T>& ws, const Mat6<T>& Phi, int r0, int L) {
-  auto t = ws.Tk.topRows(L);
-  t.noalias() = ws.F.middleRows(r0, L).lazyProduct(Phi.transpose());
-  ws.F.middleRows(r0, L) = t;
+  T* F = ws.F.data() + r0;
+  T* t = ws.Tk.data();
+  const int lf = static_cast<int>(ws.F.rows()), lt = static_cast<int>(ws.Tk.rows());
+  // t = F Φᵀ, then F = t.
+  rowProduct<6, false>(F, lf, Phi.data(), 1, 6, L, 6, t, lt);
+  for (int d = 0; d < 6; ++d)
+    for (int r = 0; r < L; ++r) F[r + static_cast<std::ptrdiff_t>(lf) * d] = t[r + lt * d];
 }
 
 // Φ ← Pᵀ_c Φ = Φ − U D⁻¹ (Sᵀ Φ), or Pᵀ_c itself for Φ = 1.
@@ -212,6 +256,49 @@ void composePropagator(const Kinematics<T>& kin, const Articulated<T>& art, int 
   out.noalias() -= UD * StPhi;
 }
 
+// B ← B + t D_c⁻¹ tᵀ (lower triangle) for t = F_rows S_c (L×k), left in Tk by
+// applyPropagator: joint c's term f_xᵀ K_c f_y = (S_cᵀ f_x)ᵀ D_c⁻¹ (S_cᵀ f_y) of a deferred block.
+template <class T>
+void addJointTerm(const Articulated<T>& art, const ContactInertiaWorkspace<T>& ws, int c, int k,
+                  int L, Mat6<T>& B) {
+  const T* t = ws.Tk.data();
+  const int lt = static_cast<int>(ws.Tk.rows());
+  const MatK<T>& Dinv = art.Dinv[c];
+  for (int x = 0; x < L; ++x) {
+    // td = t_x D⁻¹, then B(x, y) += td · t_y for y ≤ x.
+    T td[6];
+    for (int j = 0; j < k; ++j) {
+      T acc = t[x] * Dinv(0, j);
+      for (int i = 1; i < k; ++i) acc += t[x + lt * i] * Dinv(i, j);
+      td[j] = acc;
+    }
+    for (int y = 0; y <= x; ++y) {
+      T acc = td[0] * t[y];
+      for (int j = 1; j < k; ++j) acc += td[j] * t[y + lt * j];
+      B(x, y) += acc;
+    }
+  }
+}
+
+// A deferred block finished at a: A(P(x), P(y)) = F_x Ω_a F_yᵀ + B(x, y) for the rows
+// [x0, x0 + L) (L ≤ kDirectMax), both triangles.
+template <class T>
+void deferredBlock(ContactInertiaWorkspace<T>& ws, const Mat6<T>& Om, int x0, int L,
+                   const Mat6<T>& B, MatX<T>& A) {
+  const T* F = ws.F.data() + x0;
+  T* G = ws.G.data();
+  const int lf = static_cast<int>(ws.F.rows()), lg = static_cast<int>(ws.G.rows());
+  rowProduct<6, false>(F, lf, Om.data(), 6, 1, L, 6, G, lg);
+  for (int y = 0; y < L; ++y)
+    for (int x = y; x < L; ++x) {
+      T v = B(x, y);
+      for (int d = 0; d < 6; ++d) v += G[x + lg * d] * F[y + lf * d];
+      const int r = ws.perm[x0 + x], c = ws.perm[x0 + y];
+      A(r, c) = v;
+      A(c, r) = v;
+    }
+}
+
 // The pairs of position ranges X = [x0, x0 + nx) and Y = [y0, y0 + ny), disjoint or equal
 // (diag): A(P(X), P(Y)) = F_X Ω F_Yᵀ and its mirror, P the sorted position → input index.
 // With threads > 1, a block of at least kParallelEntries entries in preorder is split by rows
@@ -222,14 +309,20 @@ void pairBlock(ContactInertiaWorkspace<T>& ws, const Mat6<T>& Om, int x0, int nx
   if (nx == 0 || ny == 0) return;
   // G = F_s Ω on the smaller side s; the block is F_big Gᵀ (big rows, small columns).
   if (ny > nx) std::swap(x0, y0), std::swap(nx, ny);
-  auto G = ws.G.topRows(ny);
-  G.noalias() = ws.F.middleRows(y0, ny).lazyProduct(Om);
+  const T* F = ws.F.data();
+  T* G = ws.G.data();
+  const int lf = static_cast<int>(ws.F.rows()), lg = static_cast<int>(ws.G.rows());
+  const int la = static_cast<int>(A.rows());
+  rowProduct<6, false>(F + y0, lf, Om.data(), 6, 1, ny, 6, G, lg);
+  // Rows [x, x + L) of F_X Gᵀ into C (column stride lc).
+  auto block = [&](int x, int L, T* C, int lc) {
+    rowProduct<6, false>(F + x, lf, G, 1, lg, L, ny, C, lc);
+  };
   if (identity && !diag) {
     // Rows [r0, r0 + L) of the block and their mirror.
     auto rows = [&](int r0, int L) {
-      auto B = A.block(x0 + r0, y0, L, ny);
-      B.noalias() = ws.F.middleRows(x0 + r0, L).lazyProduct(G.transpose());
-      A.block(y0, x0 + r0, ny, L) = B.transpose();
+      block(x0 + r0, L, A.data() + x0 + r0 + static_cast<std::ptrdiff_t>(la) * y0, la);
+      A.block(y0, x0 + r0, ny, L) = A.block(x0 + r0, y0, L, ny).transpose();
     };
     // Chunks of rows, the same on one thread or several (the same products, bit for bit).
     constexpr int kChunk = 64;
@@ -247,7 +340,7 @@ void pairBlock(ContactInertiaWorkspace<T>& ws, const Mat6<T>& Om, int x0, int nx
   }
   if (identity) {
     auto B = A.block(x0, y0, nx, ny);
-    B.noalias() = ws.F.middleRows(x0, nx).lazyProduct(G.transpose());
+    block(x0, nx, A.data() + x0 + static_cast<std::ptrdiff_t>(la) * y0, la);
     for (int c = 1; c < nx; ++c)
       for (int r = 0; r < c; ++r) B(r, c) = B(c, r);
     return;
@@ -258,7 +351,7 @@ void pairBlock(ContactInertiaWorkspace<T>& ws, const Mat6<T>& Om, int x0, int nx
     for (int i0 = diag ? j0 : 0; i0 < nx; i0 += tl) {
       const int ti = std::min(tl, nx - i0), tj = std::min(tl, ny - j0);
       auto tile = ws.tile.topLeftCorner(ti, tj);
-      tile.noalias() = ws.F.middleRows(x0 + i0, ti).lazyProduct(G.middleRows(j0, tj).transpose());
+      rowProduct<6, false>(F + x0 + i0, lf, G + j0, 1, lg, ti, tj, ws.tile.data(), tl);
       for (int j = 0; j < tj; ++j)
         for (int i = diag && i0 == j0 ? j : 0; i < ti; ++i) {
           const int r = ws.perm[x0 + i0 + i], c = ws.perm[y0 + j0 + j];
@@ -295,13 +388,25 @@ void contactInertia(const Model& model, const Kinematics<T>& kin, const Articula
     identity &= pos == r;
     ws.F.row(pos) = wrenches[r].transpose();
   }
-  for (int i = 0; i < nb; ++i) ws.cnt[i] = ws.own[i];
+  for (int i = 0; i < nb; ++i) ws.cnt[i] = ws.own[i], ws.kids[i] = 0, ws.need[i] = 0;
   for (int i = nb - 1; i >= 0; --i)
-    if (model.parent(i) >= 0) ws.cnt[model.parent(i)] += ws.cnt[i];
+    if (model.parent(i) >= 0 && ws.cnt[i] > 0) {
+      ws.cnt[model.parent(i)] += ws.cnt[i];
+      ++ws.kids[model.parent(i)];
+    }
+  // Ω where pairs meet and on the way down to there: a root, a body with directions of its own
+  // and below it, or below two children, or a leaf with too many to defer; and their ancestors.
+  constexpr int kDirect = ContactInertiaWorkspace<T>::kDirectMax;
+  for (int i = nb - 1; i >= 0; --i) {
+    const int o = ws.own[i], kd = ws.kids[i];
+    ws.need[i] |= ws.cnt[i] > 0 && (model.parent(i) < 0 || kd >= 2 || (o > 0 && kd >= 1) ||
+                                    (kd == 0 && o > kDirect));
+    if (ws.need[i] && model.parent(i) >= 0) ws.need[model.parent(i)] = 1;
+  }
 
-  // (1) Ω top-down over the bodies with contacts below them.
+  // (1) Ω top-down where needed.
   for (int i = 0; i < nb; ++i) {
-    if (ws.cnt[i] == 0) continue;
+    if (!ws.need[i]) continue;
     const int p = model.parent(i), v = model.vIdx(i), k = model.nvOf(i);
     const Mat6<T>* Op = p >= 0 ? &ws.Omega[p] : nullptr;
     forJointSize(k, [&](auto K) { detail::omegaStep(K, kin, art, Op, ws.Omega[i], i, v, k); });
@@ -310,29 +415,53 @@ void contactInertia(const Model& model, const Kinematics<T>& kin, const Articula
   // (2) Bottom-up: bring the children's directions up, write the pairs that meet here.
   for (int p = nb - 1; p >= 0; --p) {
     const int a = ws.order[p];
+    ws.pend[a] = 0;
     if (ws.cnt[a] == 0) continue;
-    int kids = 0, only = -1;
-    for (int q = ws.child_start[a]; q < ws.child_start[a + 1]; ++q)
-      if (ws.cnt[ws.children[q]] > 0) ++kids, only = ws.children[q];
+    const int kd = ws.kids[a], o = ws.own[a];
+    // A leaf body's own pairs (≤ kDirect directions, not a root): deferred to the next body
+    // with Ω, each joint on the way adding its K term (see the header).
+    if (kd == 0 && !ws.need[a]) {
+      ws.Bpend[a].setZero();
+      ws.pend[a] = 1;
+      ws.phi_identity[a] = 1;
+      continue;
+    }
     // Pass-through: one child's directions, none of its own; compose or apply Pᵀ_c.
-    if (ws.own[a] == 0 && kids == 1) {
-      const int c = only, v = model.vIdx(c), k = model.nvOf(c);
-      if (ws.phi_identity[c] && ws.cnt[c] <= ContactInertiaWorkspace<T>::kDirectMax) {
+    if (o == 0 && kd == 1) {
+      int c = -1;
+      for (int q = ws.child_start[a]; q < ws.child_start[a + 1]; ++q)
+        if (ws.cnt[ws.children[q]] > 0) c = ws.children[q];
+      const int v = model.vIdx(c), k = model.nvOf(c);
+      if (ws.phi_identity[c] && ws.cnt[c] <= kDirect) {
         detail::applyPropagator(kin, art, ws, v, k, ws.start[c], ws.cnt[c]);
         ws.phi_identity[a] = 1;
+        if (ws.pend[c]) {
+          // The deferred block climbs; at a root it is finished there.
+          ws.Bpend[a] = ws.Bpend[c];
+          detail::addJointTerm(art, ws, c, k, ws.cnt[c], ws.Bpend[a]);
+          if (model.parent(a) >= 0)
+            ws.pend[a] = 1;
+          else
+            detail::deferredBlock(ws, ws.Omega[a], ws.start[c], ws.cnt[c], ws.Bpend[a], A);
+        }
       } else {
         detail::composePropagator(kin, art, v, k, ws.phi_identity[c], ws.Phi[c], ws.Phi[a]);
         ws.phi_identity[a] = 0;
       }
       continue;
     }
-    // Branch node: every child's range propagated to a.
+    // Branch node: every child's range propagated to a; deferred blocks finished here.
+    const Mat6<T>& Om = ws.Omega[a];
     for (int q = ws.child_start[a]; q < ws.child_start[a + 1]; ++q) {
       const int c = ws.children[q];
       if (ws.cnt[c] == 0) continue;
       const int v = model.vIdx(c), k = model.nvOf(c);
       if (ws.phi_identity[c]) {
         detail::applyPropagator(kin, art, ws, v, k, ws.start[c], ws.cnt[c]);
+        if (ws.pend[c]) {
+          detail::addJointTerm(art, ws, c, k, ws.cnt[c], ws.Bpend[c]);
+          detail::deferredBlock(ws, Om, ws.start[c], ws.cnt[c], ws.Bpend[c], A);
+        }
       } else {
         Mat6<T> Phi;
         detail::composePropagator(kin, art, v, k, false, ws.Phi[c], Phi);
@@ -341,8 +470,7 @@ void contactInertia(const Model& model, const Kinematics<T>& kin, const Articula
     }
     ws.phi_identity[a] = 1;
     // Pairs meeting at a: own × own, own × children, each child × the later children.
-    const int s = ws.start[a], e = s + ws.cnt[a], o = ws.own[a];
-    const Mat6<T>& Om = ws.Omega[a];
+    const int s = ws.start[a], e = s + ws.cnt[a];
     detail::pairBlock(ws, Om, s, o, s, o, true, identity, A, threads);
     detail::pairBlock(ws, Om, s + o, e - s - o, s, o, false, identity, A, threads);
     for (int q = ws.child_start[a]; q < ws.child_start[a + 1]; ++q) {

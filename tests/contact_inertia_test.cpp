@@ -251,6 +251,25 @@ TEST(ContactInertia, SerialChainsCompositePropagators) {
   }
 }
 
+// One or two points (3 or 6 directions: deferred) or three (9: not) at the tip of a chain,
+// nothing else: the tip's own pairs climb the whole chain and are finished at the root.
+TEST(ContactInertia, DeferredToTheRoot) {
+  for (int trial = 0; trial < 6; ++trial) {
+    const Model m = randomTree({.topology = Topology::Serial,
+                                .n = 4 + 3 * trial,
+                                .seed = 1100u + trial,
+                                .floating_base = trial % 2 == 1,
+                                .joints = JointSet::Mixed});
+    const Eigen::VectorXd q = randomConfiguration(m, 1200 + trial);
+    const Kinematics<double> kin = kinematicsAt(m, q);
+    Rng rng(1300 + trial);
+    Contacts c;
+    const int tip = m.nb() - 1;
+    for (int e = 0; e <= trial % 3; ++e) c.point(tip, nearBody(kin, tip, rng));
+    check(m, q, c, "tip of chain " + std::to_string(trial));
+  }
+}
+
 // A forest: two trees side by side (no common ancestor, so their directions do not couple).
 TEST(ContactInertia, Forest) {
   const Model a = floatingMixed(8, 11);
