@@ -139,12 +139,20 @@ void lambdaFromBeta(const double* Wd, const Eigen::VectorXd& beta, int k, Eigen:
   }
 }
 
-// u += a0 d0 + a1 d1 + a2 d2 over n entries: the sweep's one long loop, compiled for AVX2 and
-// AVX-512 beside the portable build's SSE and chosen at load time by the CPU (GCC's
-// target_clones; the same arithmetic on every path, FMA contraction aside).
-MINV_CLONES void addThreeColumns(int n, const double* a0, const double* a1, const double* a2,
-                                 double d0, double d1, double d2, double* u) {
+// u += a0 d0 + a1 d1 + a2 d2 over n entries: the sweep's one long loop.
+inline void addThreeColumns(int n, const double* a0, const double* a1, const double* a2, double d0,
+                            double d1, double d2, double* u) {
   for (int i = 0; i < n; ++i) u[i] += a0[i] * d0 + a1[i] * d1 + a2[i] * d2;
+}
+
+// ‖min(β, g)‖_∞ with g = Wᵀ(u + [b; 0; 0]) per contact (left in g).
+inline double kktResidual(const ContactProblem& p, const double* Wd, const Eigen::VectorXd& beta,
+                          const Eigen::VectorXd& u, Eigen::VectorXd& g) {
+  const int nc = static_cast<int>(p.b.size()), k = p.k, m = k * nc;
+  for (int c = 0; c < nc; ++c) generatorVelocities(Wd, u.data(), p.b, c, k, g.data() + k * c);
+  double e = 0;
+  for (int j = 0; j < m; ++j) e = std::max(e, std::abs(std::min(beta(j), g(j))));
+  return e;
 }
 
 // One block Gauss–Seidel sweep: contact by contact, its k generators by coordinate descent on
@@ -165,16 +173,15 @@ void contactSweep(const ContactProblem& p, const double* Wd, const double* Gd, c
     for (int j = 0; j < k; ++j) old[j] = bc[j];
     bool changed = false;
     for (int sweep = 0; sweep < inner; ++sweep) {
+      // Without data-dependent branches (a generator at its bound moves or not unpredictably):
+      // rd = 0 gives delta = 0, and adding 0·G leaves gc as it is.
       bool moved = false;
       for (int j = 0; j < k; ++j) {
-        if (!(rd[j] > 0)) continue;
         const double nb = std::max(0.0, bc[j] - gc[j] * rd[j]);
         const double delta = nb - bc[j];
-        if (delta != 0) {
-          bc[j] = nb;
-          for (int i = 0; i < k; ++i) gc[i] += delta * G[k * j + i];
-          moved = true;
-        }
+        bc[j] = nb;
+        for (int i = 0; i < k; ++i) gc[i] += delta * G[k * j + i];
+        moved |= delta != 0;
       }
       changed |= moved;
       if (!moved) break;
@@ -191,6 +198,21 @@ void contactSweep(const ContactProblem& p, const double* Wd, const double* Gd, c
     const double *a1 = a0 + n3, *a2 = a1 + n3;
     addThreeColumns(n3, a0, a1, a2, d0, d1, d2, uu);
   }
+}
+
+// One sweep (fixed-size for the usual k = 4), then the KKT residual ‖min(β, g)‖_∞ with g the
+// generator velocities of every contact (left in g): the iteration, compiled for AVX-512 and
+// AVX2 beside the portable build and chosen at load time (GCC target_clones; FMA contraction
+// aside, the same arithmetic on every path).
+MINV_CLONES_FLAT double sweepAndResidual(const ContactProblem& p, const double* Wd,
+                                         const double* Gd, const double* Rd, int inner,
+                                         ContactSolution& s, Eigen::VectorXd& u,
+                                         Eigen::VectorXd& g) {
+  if (p.k == 4)
+    contactSweep<4>(p, Wd, Gd, Rd, inner, s, u);
+  else
+    contactSweep<Eigen::Dynamic>(p, Wd, Gd, Rd, inner, s, u);
+  return kktResidual(p, Wd, s.beta, u, g);
 }
 
 }  // namespace
@@ -238,27 +260,19 @@ ContactSolution solveMaxDissipation(const ContactProblem& p, const Eigen::Vector
   Eigen::VectorXd g(m);
   for (int c = 0; c < nc; ++c) generatorVelocities(Wd, p.v0.data(), p.b, c, k, g.data() + k * c);
   const double tol = o.tolerance * std::max(g.cwiseAbs().maxCoeff(), o.floor);
-  auto kkt = [&] {
-    double e = 0;
-    for (int c = 0; c < nc; ++c) generatorVelocities(Wd, u.data(), p.b, c, k, g.data() + k * c);
-    for (int j = 0; j < m; ++j) e = std::max(e, std::abs(std::min(s.beta(j), g(j))));
-    return e;
-  };
   r.converged = false;
   for (int it = 1; it <= o.max_iterations; ++it) {
-    // One block Gauss-Seidel sweep (fixed-size for the usual k = 4).
-    if (k == 4)
-      contactSweep<4>(p, Wd, Gd.data(), Rd.data(), inner, s, u);
-    else
-      contactSweep<Eigen::Dynamic>(p, Wd, Gd.data(), Rd.data(), inner, s, u);
+    // One block Gauss-Seidel sweep and its residual.
+    double e = sweepAndResidual(p, Wd, Gd.data(), Rd.data(), inner, s, u, g);
     // No drift from the incremental updates.
     if (it % 64 == 0) {
       lambdaFromBeta(Wd, s.beta, k, s.lambda);
       u = p.v0;
       u.noalias() += p.A * s.lambda;
+      e = kktResidual(p, Wd, s.beta, u, g);
     }
     r.iterations = it;
-    if (kkt() <= tol) {
+    if (e <= tol) {
       r.converged = true;
       break;
     }
@@ -267,7 +281,7 @@ ContactSolution solveMaxDissipation(const ContactProblem& p, const Eigen::Vector
   lambdaFromBeta(Wd, s.beta, k, s.lambda);
   u = p.v0;
   u.noalias() += p.A * s.lambda;
-  r.kkt = kkt();
+  r.kkt = kktResidual(p, Wd, s.beta, u, g);
   for (int j = 0; j < m; ++j)
     r.complementarity = std::max(r.complementarity, std::abs(s.beta(j) * g(j)));
   residualsOnLambda(p, cn, u, s);
