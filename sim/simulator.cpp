@@ -75,6 +75,7 @@ Simulator::Simulator(const Model& model, std::vector<ContactPoint> points, SimOp
   q_ = model_.neutral();
   v_ = tau_ = qdd_ = vstar_ = dv_ = scratch_ = Eigen::VectorXd::Zero(nv);
   warm_.assign(points_.size(), Eigen::VectorXd());
+  warm_prev_.assign(points_.size(), Eigen::VectorXd());
   if (o_.path == kTestImpulsePath && o_.threads > 1) {
     column_ws_.assign(o_.threads, ImpulseWorkspace(model_));
     column_scratch_.assign(o_.threads, Eigen::VectorXd::Zero(nv));
@@ -139,6 +140,7 @@ void Simulator::step() {
       }
     }
     warm_[c].resize(0);
+    warm_prev_[c].resize(0);
   }
   const int nc = static_cast<int>(active_.size()), m = 3 * nc;
   const Eigen::VectorXd v0 = Eigen::Map<const Eigen::VectorXd>(vel.data(), m);
@@ -180,18 +182,27 @@ void Simulator::step() {
     }
     st.matrices = since(t0);
 
-    // solve: maximum dissipation, warm started.
+    // solve: maximum dissipation, warm started from the weights of the last two steps.
     prob_.v0 = v0;
     prob_.b = Eigen::Map<const Eigen::VectorXd>(bias.data(), nc);
     prob_.mu = o_.mu;
     prob_.k = k;
     warm_beta_.resize(k * nc);
     for (int c = 0; c < nc; ++c) {
-      const Eigen::VectorXd& w = warm_[active_[c]];
-      warm_beta_.segment(k * c, k) = w.size() == k ? w : Eigen::VectorXd::Zero(k);
+      const Eigen::VectorXd &w = warm_[active_[c]], &wp = warm_prev_[active_[c]];
+      auto out = warm_beta_.segment(k * c, k);
+      if (w.size() == k && wp.size() == k)
+        out = (2 * w - wp).cwiseMax(0.0);
+      else if (w.size() == k)
+        out = w;
+      else
+        out.setZero();
     }
     ContactSolution sol = solveMaxDissipation(prob_, warm_beta_, o_.contact);
-    for (int c = 0; c < nc; ++c) warm_[active_[c]] = sol.beta.segment(k * c, k);
+    for (int c = 0; c < nc; ++c) {
+      std::swap(warm_prev_[active_[c]], warm_[active_[c]]);
+      warm_[active_[c]] = sol.beta.segment(k * c, k);
+    }
     lambda_ = sol.lambda;
     residuals_ = sol.residuals;
     st.solve = since(t0);

@@ -20,7 +20,13 @@
 //                  articulated inertias, every pair of directions meeting at its lowest
 //                  common ancestor, Θ(n + m²).
 //   solve        the maximum-dissipation contact impulses λ (sim/contact_solver.hpp), warm
-//                started from the previous step's generator weights of the same point.
+//                started from the generator weights of the same point: extrapolated
+//                linearly, max(0, 2β_{t−1} − β_{t−2}), where the point was in contact in both
+//                previous steps, else β_{t−1}, else 0. While contacts stick or slide smoothly
+//                the solution moves along a smooth path and the extrapolation takes out its
+//                first-order change (the standing centipede: 4 block Gauss–Seidel sweeps
+//                instead of 7 at the same tolerance; the answer is the solver's, whatever the
+//                start).
 //   update       v⁺ = v* + M⁻¹Jλ (solver paths: X λ; test-impulse and contact-inertia: one
 //                impulse sweep), then
 //                q ← q ⊕ h v⁺ (sim/dynamics.hpp). This is semi-implicit ("symplectic")
@@ -122,8 +128,9 @@ class Simulator {
   ContactInertiaWorkspace<double> cia_;
   Eigen::VectorXd q_, v_, tau_, qdd_, vstar_, dv_, scratch_, lambda_, warm_beta_;
   Eigen::MatrixXd J_, X_, Xt_;
-  ContactProblem prob_;                // A is built in place here
-  std::vector<Eigen::VectorXd> warm_;  // per contact point, k generator weights
+  ContactProblem prob_;  // A is built in place here
+  // Per contact point, the generator weights of the last two steps (empty: not in contact).
+  std::vector<Eigen::VectorXd> warm_, warm_prev_;
   std::vector<int> active_;
   // This step's contact directions (3 per active contact): body, unit wrench, velocity; the
   // normal bias per contact. Members so that their capacity is kept from step to step.
