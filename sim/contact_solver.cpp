@@ -90,13 +90,13 @@ const Cone& cone(double mu, int k) {
 }
 
 // The residuals measured on λ and v⁺ = Aλ + v0 themselves: penetration and cone.
-void residualsOnLambda(const ContactProblem& p, const Cone& cn, const Eigen::VectorXd& vplus,
+void residualsOnLambda(const ContactProblem& p, const Cone& cn, const double* vplus,
                        ContactSolution& s) {
   const int nc = static_cast<int>(p.b.size()), k = p.k;
   const double inradius = cn.inradius;
   const std::vector<double>&fc = cn.fc, &fs = cn.fs;
   for (int c = 0; c < nc; ++c) {
-    s.residuals.penetration = std::max(s.residuals.penetration, -(vplus(3 * c) + p.b(c)));
+    s.residuals.penetration = std::max(s.residuals.penetration, -(vplus[3 * c] + p.b(c)));
     const double fn = s.lambda(3 * c);
     double out = std::max(0.0, -fn);
     for (int j = 0; j < k; ++j)
@@ -200,91 +200,129 @@ void contactSweep(const ContactProblem& p, const double* Wd, const double* Gd, c
   }
 }
 
-// One sweep (fixed-size for the usual k = 4), then the KKT residual ‖min(β, g)‖_∞ with g the
-// generator velocities of every contact (left in g): the iteration, compiled for AVX-512 and
-// AVX2 beside the portable build and chosen at load time (GCC target_clones; FMA contraction
-// aside, the same arithmetic on every path).
-MINV_CLONES_FLAT double sweepAndResidual(const ContactProblem& p, const double* Wd,
-                                         const double* Gd, const double* Rd, int inner,
-                                         ContactSolution& s, Eigen::VectorXd& u,
-                                         Eigen::VectorXd& g) {
-  if (p.k == 4)
-    contactSweep<4>(p, Wd, Gd, Rd, inner, s, u);
-  else
-    contactSweep<Eigen::Dynamic>(p, Wd, Gd, Rd, inner, s, u);
-  return kktResidual(p, Wd, s.beta, u, g);
-}
-
-}  // namespace
-
-ContactSolution solveMaxDissipation(const ContactProblem& p, const Eigen::VectorXd& beta,
-                                    const ContactSolverOptions& o) {
-  checkProblem(p);
-  const int nc = static_cast<int>(p.b.size()), k = p.k, m = k * nc;
-  const Cone& cn = cone(p.mu, k);  // no other cone() call until the solve returns
-  const double* Wd = cn.W.data();  // W(r, j) = Wd[3 j + r]
-  const int inner = std::max(1, o.inner_sweeps);
-  ContactSolution s;
-  s.beta = beta.size() == m ? Eigen::VectorXd(beta.cwiseMax(0.0)) : Eigen::VectorXd::Zero(m);
-  s.lambda.resize(3 * nc);
-  ContactResiduals& r = s.residuals;
-  if (nc == 0) return s;
-  // Diagonal blocks G_cc = Wᵀ A_cc W (k×k each, side by side), the reciprocals of their
-  // diagonals (0 where not positive: that generator is never moved); λ_c = W β_c.
-  Eigen::MatrixXd Gd(k, m);
-  Eigen::VectorXd Rd(m);
+// G_cc = Wᵀ A_cc W for every contact c (k×k each, side by side in Gd) and the reciprocals of
+// their diagonals in Rd (0 where not positive). K: k at compile time, or Eigen::Dynamic.
+template <int K>
+void diagonalBlocks(const ContactProblem& p, const double* Wd, double* Gd, double* Rd) {
+  const int nc = static_cast<int>(p.b.size()), k = K == Eigen::Dynamic ? p.k : K;
+  constexpr int n = K == Eigen::Dynamic ? kMaxGenerators : K;
   for (int c = 0; c < nc; ++c) {
-    // A_cc W (3×k), then Wᵀ (A_cc W), in plain loops (k ≤ kMaxGenerators, on the stack).
-    double aw[3 * kMaxGenerators];
+    // A_cc W (3×k), then Wᵀ (A_cc W), in plain loops.
+    double aw[3 * n];
     for (int j = 0; j < k; ++j)
       for (int r = 0; r < 3; ++r)
         aw[3 * j + r] = p.A(3 * c + r, 3 * c) * Wd[3 * j] +
                         p.A(3 * c + r, 3 * c + 1) * Wd[3 * j + 1] +
                         p.A(3 * c + r, 3 * c + 2) * Wd[3 * j + 2];
-    double* G = Gd.data() + k * k * c;
+    double* G = Gd + k * k * c;
     for (int j = 0; j < k; ++j)
       for (int i = 0; i < k; ++i)
         G[k * j + i] =
             Wd[3 * i] * aw[3 * j] + Wd[3 * i + 1] * aw[3 * j + 1] + Wd[3 * i + 2] * aw[3 * j + 2];
     for (int j = 0; j < k; ++j) {
       const double d = G[k * j + j];
-      Rd(k * c + j) = d > 0 ? 1 / d : 0.0;
+      Rd[k * c + j] = d > 0 ? 1 / d : 0.0;
     }
   }
+}
+
+// u = v0 + A λ, three columns of A (one contact's) per pass over u.
+inline void contactVelocities(const ContactProblem& p, const Eigen::VectorXd& lambda,
+                              Eigen::VectorXd& u) {
+  const int n3 = static_cast<int>(p.v0.size());
+  double* uu = u.data();
+  for (int i = 0; i < n3; ++i) uu[i] = p.v0(i);
+  for (int c = 0; c < n3; c += 3) {
+    const double* a0 = p.A.data() + static_cast<std::ptrdiff_t>(c) * n3;
+    addThreeColumns(n3, a0, a0 + n3, a0 + 2 * n3, lambda(c), lambda(c + 1), lambda(c + 2), uu);
+  }
+}
+
+// The solve's scratch, kept per thread and grown, never shrunk: the diagonal blocks G_cc,
+// the reciprocals of their diagonals, the contact velocities u and generator velocities g.
+struct SolveScratch {
+  Eigen::VectorXd Gd, Rd, u, g;
+};
+
+// The whole solve (see the header), compiled for AVX-512 and AVX2 beside the portable build
+// and chosen at load time (GCC target_clones; FMA contraction aside, the same arithmetic on
+// every path). s.beta holds the warm start on entry (any size: a wrong one starts from 0).
+MINV_CLONES_FLAT void solveInto(const ContactProblem& p, const ContactSolverOptions& o,
+                                const Cone& cn, SolveScratch& w, ContactSolution& s) {
+  const int nc = static_cast<int>(p.b.size()), k = p.k, m = k * nc;
+  const double* Wd = cn.W.data();  // W(r, j) = Wd[3 j + r]
+  const int inner = std::max(1, o.inner_sweeps);
+  if (s.beta.size() == m)
+    s.beta = s.beta.cwiseMax(0.0);
+  else
+    s.beta.setZero(m);
+  s.lambda.resize(3 * nc);
+  ContactResiduals& r = s.residuals;
+  r = ContactResiduals{};
+  if (nc == 0) return;
+  if (w.Gd.size() < k * m) w.Gd.resize(k * m);
+  if (w.Rd.size() < m) w.Rd.resize(m), w.g.resize(m);
+  if (w.u.size() < 3 * nc) w.u.resize(3 * nc);
+  auto u = w.u.head(3 * nc);
+  auto g = w.g.head(m);
+  double *Gd = w.Gd.data(), *Rd = w.Rd.data();
+  // Diagonal blocks G_cc = Wᵀ A_cc W (k×k each, side by side), the reciprocals of their
+  // diagonals (0 where not positive: that generator is never moved); λ_c = W β_c.
+  if (k == 4)
+    diagonalBlocks<4>(p, Wd, Gd, Rd);
+  else
+    diagonalBlocks<Eigen::Dynamic>(p, Wd, Gd, Rd);
   lambdaFromBeta(Wd, s.beta, k, s.lambda);
   // u = Aλ + v0: the contact velocities, kept up to date as λ changes.
-  Eigen::VectorXd u = p.v0;
-  const bool warm = s.beta.any();
-  if (warm) u.noalias() += p.A * s.lambda;
+  if (s.beta.any())
+    contactVelocities(p, s.lambda, w.u);
+  else
+    u = p.v0;
   // The scale of the relative test: ‖g0‖∞, g0 = Wᵀ(v0 + [b; 0; 0]).
-  Eigen::VectorXd g(m);
   for (int c = 0; c < nc; ++c) generatorVelocities(Wd, p.v0.data(), p.b, c, k, g.data() + k * c);
   const double tol = o.tolerance * std::max(g.cwiseAbs().maxCoeff(), o.floor);
   r.converged = false;
   for (int it = 1; it <= o.max_iterations; ++it) {
-    // One block Gauss-Seidel sweep and its residual.
-    double e = sweepAndResidual(p, Wd, Gd.data(), Rd.data(), inner, s, u, g);
-    // No drift from the incremental updates.
+    // One block Gauss-Seidel sweep (fixed-size for the usual k = 4).
+    if (k == 4)
+      contactSweep<4>(p, Wd, Gd, Rd, inner, s, w.u);
+    else
+      contactSweep<Eigen::Dynamic>(p, Wd, Gd, Rd, inner, s, w.u);
+    // No drift from the incremental updates: every 64 sweeps, λ and u afresh.
     if (it % 64 == 0) {
       lambdaFromBeta(Wd, s.beta, k, s.lambda);
-      u = p.v0;
-      u.noalias() += p.A * s.lambda;
-      e = kktResidual(p, Wd, s.beta, u, g);
+      contactVelocities(p, s.lambda, w.u);
     }
     r.iterations = it;
-    if (e <= tol) {
+    if (kktResidual(p, Wd, s.beta, w.u, w.g) <= tol) {
       r.converged = true;
       break;
     }
   }
   // λ = Wβ and v⁺ = Aλ + v0 afresh; the KKT residual and complementarity on them.
   lambdaFromBeta(Wd, s.beta, k, s.lambda);
-  u = p.v0;
-  u.noalias() += p.A * s.lambda;
-  r.kkt = kktResidual(p, Wd, s.beta, u, g);
+  contactVelocities(p, s.lambda, w.u);
+  r.kkt = kktResidual(p, Wd, s.beta, w.u, w.g);
   for (int j = 0; j < m; ++j)
     r.complementarity = std::max(r.complementarity, std::abs(s.beta(j) * g(j)));
-  residualsOnLambda(p, cn, u, s);
+  residualsOnLambda(p, cn, w.u.data(), s);
+}
+
+}  // namespace
+
+void solveMaxDissipation(const ContactProblem& p, const Eigen::VectorXd& beta,
+                         const ContactSolverOptions& o, ContactSolution& s) {
+  checkProblem(p);
+  const Cone& cn = cone(p.mu, p.k);  // no other cone() call until the solve returns
+  thread_local SolveScratch scratch;
+  if (&beta != &s.beta) s.beta = beta;
+  solveInto(p, o, cn, scratch, s);
+}
+
+ContactSolution solveMaxDissipation(const ContactProblem& p, const Eigen::VectorXd& beta,
+                                    const ContactSolverOptions& o) {
+  ContactSolution s;
+  solveMaxDissipation(p, beta, o, s);
   return s;
 }
 
@@ -311,7 +349,7 @@ ContactSolution solveMaxDissipationReference(const ContactProblem& p, const Eige
   for (int c = 0; c < nc; ++c) s.lambda.segment<3>(3 * c) = W * s.beta.segment(k * c, k);
   // Residuals on λ and v⁺ themselves.
   const Eigen::VectorXd vplus = p.A * s.lambda + p.v0;
-  residualsOnLambda(p, cone(p.mu, k), vplus, s);
+  residualsOnLambda(p, cone(p.mu, k), vplus.data(), s);
   return s;
 }
 

@@ -95,6 +95,10 @@ struct ContactSolution {
 // residuals are measured on λ and v⁺ = Aλ + v0, independently of the parametrisation.
 ContactSolution solveMaxDissipation(const ContactProblem& problem, const Eigen::VectorXd& beta,
                                     const ContactSolverOptions& options);
+// The same into `out`, reusing its storage (beta may be out.beta); the solve's other scratch
+// is kept per thread, so a caller that keeps `out` solves step after step without allocating.
+void solveMaxDissipation(const ContactProblem& problem, const Eigen::VectorXd& beta,
+                         const ContactSolverOptions& options, ContactSolution& out);
 // The same problem by the former implementation: G = WᵀAW formed, solveBoundQP (the oracle
 // of the tests; options.inner_sweeps is ignored).
 ContactSolution solveMaxDissipationReference(const ContactProblem& problem,

@@ -198,7 +198,8 @@ void Simulator::step() {
       else
         out.setZero();
     }
-    ContactSolution sol = solveMaxDissipation(prob_, warm_beta_, o_.contact);
+    ContactSolution& sol = sol_;
+    solveMaxDissipation(prob_, warm_beta_, o_.contact, sol);
     for (int c = 0; c < nc; ++c) {
       std::swap(warm_prev_[active_[c]], warm_[active_[c]]);
       warm_[active_[c]] = sol.beta.segment(k * c, k);

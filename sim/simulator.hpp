@@ -129,6 +129,7 @@ class Simulator {
   Eigen::VectorXd q_, v_, tau_, qdd_, vstar_, dv_, scratch_, lambda_, warm_beta_;
   Eigen::MatrixXd J_, X_, Xt_;
   ContactProblem prob_;  // A is built in place here
+  ContactSolution sol_;  // the last solve (its storage kept)
   // Per contact point, the generator weights of the last two steps (empty: not in contact).
   std::vector<Eigen::VectorXd> warm_, warm_prev_;
   std::vector<int> active_;
