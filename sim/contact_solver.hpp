@@ -38,10 +38,9 @@
 // the drift refresh every 64 sweeps (u = Aλ + v0 afresh) and the residuals reported are as
 // above; the final residuals use λ = Wβ and v⁺ = Aλ + v0 recomputed from β.
 // solveMaxDissipationReference() is the former implementation (G formed, solveBoundQP),
-// kept as the oracle of tests/sim_contact_solver_test.cpp. A sweep and its residual test are
-// one function compiled per ISA level (sim/clones.hpp), its coordinate steps without
-// data-dependent branches. Cost per sweep Θ(nc·3nc) flops (reference Θ((k·nc)²)); setup
-// Θ(nc) plus one product Aλ when warm started.
+// kept as the oracle of tests/sim_contact_solver_test.cpp. The solve is one function compiled
+// per ISA level (sim/clones.hpp), its coordinate steps without data-dependent branches. Cost per
+// sweep Θ(nc·3nc) flops (reference Θ((k·nc)²)); setup Θ(nc) plus one product Aλ when warm started.
 //
 // Limits. PGS converges linearly, slowly when G is ill-conditioned (long chains, many
 // coupled contacts, large mass ratios); it stops at max_iterations and says so (converged =
