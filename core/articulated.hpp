@@ -47,16 +47,35 @@ void forJointSize(int k, Step&& step) {
 template <class T, int K>
 using MatJ = Eigen::Matrix<T, K, K, 0, K == Eigen::Dynamic ? 6 : K, K == Eigen::Dynamic ? 6 : K>;
 
-// Inverse of a small symmetric positive-definite k×k matrix (k ≤ 6) by Cholesky, D = L Lᵀ;
-// Dinv is k×k on entry. K: k at compile time (or Eigen::Dynamic). (The 3×3 adjugate, without
-// square roots, was tried: its error grows as κ² where Cholesky's grows as κ, 4e-8 against
-// 5e-12 on a light spherical body above a heavy sliding child.)
+// Inverse of a small symmetric positive-definite k×k matrix (k ≤ 6) by Cholesky, D = L Lᵀ
+// (3×3 by its square-root-free form L Δ Lᵀ); Dinv is k×k on entry. K: k at compile time (or
+// Eigen::Dynamic). (The 3×3 adjugate, without square roots, was tried: its error grows as κ² where
+// Cholesky's grows as κ, 4e-8 against 5e-12 on a light spherical body above a heavy sliding child.)
 template <class T, int K = Eigen::Dynamic, class In, class Out>
 void spdInverse(const In& D, Out&& Dinv) {
   using std::sqrt;
   const int k = K == Eigen::Dynamic ? static_cast<int>(D.rows()) : K;
   if (k == 1) {
     Dinv(0, 0) = T(1) / D(0, 0);
+    return;
+  }
+  if constexpr (K == 3) {
+    // 3×3 (spherical joints): D = L Δ Lᵀ with L unit lower triangular, no square roots (the
+    // same elimination as Cholesky, as stable on SPD matrices); D⁻¹ = Mᵀ Δ⁻¹ M, M = L⁻¹.
+    const T r0 = T(1) / D(0, 0);
+    const T l10 = D(1, 0) * r0, l20 = D(2, 0) * r0;
+    const T r1 = T(1) / (D(1, 1) - l10 * D(1, 0));
+    const T e21 = D(2, 1) - l20 * D(1, 0);
+    const T l21 = e21 * r1;
+    const T r2 = T(1) / (D(2, 2) - l20 * D(2, 0) - l21 * e21);
+    const T m10 = -l10, m21 = -l21, m20 = l10 * l21 - l20;
+    const T m20r2 = m20 * r2, m21r2 = m21 * r2;
+    Dinv(0, 0) = r0 + m10 * m10 * r1 + m20 * m20r2;
+    Dinv(1, 0) = Dinv(0, 1) = m10 * r1 + m21 * m20r2;
+    Dinv(2, 0) = Dinv(0, 2) = m20r2;
+    Dinv(1, 1) = r1 + m21 * m21r2;
+    Dinv(2, 1) = Dinv(1, 2) = m21r2;
+    Dinv(2, 2) = r2;
     return;
   }
   // Factor D = L Lᵀ; keep 1/L_jj.
