@@ -257,7 +257,10 @@ def main():
                       "`mujoco-step`: the same bodies, joints, gait torques, h and μ, a "
                       "pyramidal 4-edge cone and PGS, but MuJoCo's soft contacts on 1 cm tip "
                       "spheres, so only the time per step with every leg in contact and "
-                      "whether it walks are comparable); ms per step, ratios = other / best:",
+                      "whether it walks are comparable); ms per step (the mean over the "
+                      "run's steps, each run after one untimed step of a throwaway instance of "
+                      "its path, MuJoCo's included, as a benchmark warms up), ratios = "
+                      "other / best:",
                       "",
                       "| S | n (DOF) | best path | best ms | lapack ms | lapack / best | "
                       "matrices: lapack / best | MuJoCo ms | MuJoCo / best | "
@@ -276,7 +279,10 @@ def main():
                       "of at least 16384 entries (none in the centipede, whose blocks pair one "
                       "subtree with at most 6 directions: contact-inertia@2 runs the same work "
                       "as one thread plus the OpenMP start-up); the articulated pass, ABA and "
-                      "the projected Gauss–Seidel, sequential by contact, stay on one thread.",
+                      "the projected Gauss–Seidel, sequential by contact, stay on one thread. "
+                      "For contact-inertia, where that column differs from 1× it measures this "
+                      "machine's run-to-run variation (the quick sweep runs S = 250 for 3 "
+                      "steps).",
                       ""]
         figure(lines, "walk_path", "The walk seen from above (results/walk.h5); "
                "an animation is in figures/walk.gif")
