@@ -2,7 +2,8 @@
 // complementarity, penetration and cone residuals under tolerance, and the optimum against
 // brute-force enumeration of active sets on small instances; the block Gauss–Seidel solve
 // against the former implementation (solveMaxDissipationReference) on random problems and on
-// problems recorded from a walking centipede: the same λ and v⁺ within the tolerance.
+// problems recorded from a walking centipede: the same λ and v⁺ within the tolerance; the
+// simulator's extrapolated warm start.
 #include <gtest/gtest.h>
 
 #include <Eigen/Cholesky>
@@ -270,6 +271,39 @@ TEST(SimContactSolver, BlockSolveMatchesReferenceOnRecordedCentipedeProblems) {
     }
     EXPECT_GE(recorded, 6);
   }
+}
+
+// The simulator's warm start (sim/simulator.hpp): at a point in contact in the two previous
+// steps, max(0, 2β_{t−1} − β_{t−2}); after one step in contact, β_{t−1}; else 0. Each step's
+// weights β are solved again here from its recorded problem and start (the solve is
+// deterministic), on a standing centipede whose legs all stay in contact.
+TEST(SimContactSolver, WarmStartExtrapolatesTheLastTwoSteps) {
+  const Centipede c = makeCentipede({.segments = 3});
+  SimOptions so;
+  so.dt = 1e-5;
+  so.path = kContactInertiaPath;
+  WalkingCentipede walk(c, so);
+  Simulator& sim = walk.sim();
+  std::vector<Eigen::VectorXd> beta;
+  int checked = 0, distinct = 0;
+  for (int step = 0; step < 8; ++step) {
+    sim.step();
+    ASSERT_EQ(sim.lastContacts(), c.legs()) << "step " << step;
+    const Eigen::VectorXd& start = sim.lastWarmStart();
+    if (step == 0) {
+      EXPECT_TRUE(start.isZero()) << "no earlier step";
+    } else if (step == 1) {
+      EXPECT_TRUE(start == beta[0]) << "one earlier step";
+    } else {
+      const Eigen::VectorXd expected = (2 * beta[step - 1] - beta[step - 2]).cwiseMax(0.0);
+      EXPECT_TRUE(start == expected) << "step " << step;
+      ++checked;
+      distinct += expected != beta[step - 1];  // the test tells extrapolation from reuse
+    }
+    beta.push_back(solveMaxDissipation(sim.lastProblem(), start, so.contact).beta);
+  }
+  EXPECT_EQ(checked, 6);
+  EXPECT_GE(distinct, 5);
 }
 
 }  // namespace
