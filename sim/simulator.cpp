@@ -80,6 +80,14 @@ Simulator::Simulator(const Model& model, std::vector<ContactPoint> points, SimOp
     column_ws_.assign(o_.threads, ImpulseWorkspace(model_));
     column_scratch_.assign(o_.threads, Eigen::VectorXd::Zero(nv));
   }
+  // The per-step buffers sized (and first touched) for every point in contact, as a simulator
+  // allocates its data up front: a step with all of them in contact allocates nothing.
+  const int P = static_cast<int>(points_.size()), M = 3 * P;
+  active_.reserve(P), bodies_.reserve(M), wrenches_.reserve(M), vel_.reserve(M), bias_.reserve(P);
+  prob_.A.setZero(M, M);
+  prob_.v0.setZero(M), prob_.b.setZero(P), warm_beta_.setZero(o_.friction_dirs * P);
+  lambda_.setZero(M);
+  if (solver_) J_.setZero(nv, M), X_.setZero(nv, M), Xt_.setZero(M, nv);
 }
 
 void Simulator::setState(const Eigen::VectorXd& q, const Eigen::VectorXd& v) {
@@ -143,7 +151,6 @@ void Simulator::step() {
     warm_prev_[c].resize(0);
   }
   const int nc = static_cast<int>(active_.size()), m = 3 * nc;
-  const Eigen::VectorXd v0 = Eigen::Map<const Eigen::VectorXd>(vel.data(), m);
   st.collision = since(t0);
 
   if (nc == 0) {
@@ -183,7 +190,7 @@ void Simulator::step() {
     st.matrices = since(t0);
 
     // solve: maximum dissipation, warm started from the weights of the last two steps.
-    prob_.v0 = v0;
+    prob_.v0 = Eigen::Map<const Eigen::VectorXd>(vel.data(), m);
     prob_.b = Eigen::Map<const Eigen::VectorXd>(bias.data(), nc);
     prob_.mu = o_.mu;
     prob_.k = k;
