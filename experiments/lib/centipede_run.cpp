@@ -107,6 +107,9 @@ Eigen::Vector3d centreOfMass(const Model& m, const Kinematics<double>& kin) {
   return c / mass;
 }
 
+// Untimed steps of a throwaway walker before a timed run (see runCentipede).
+constexpr int kWarmupSteps = 3;
+
 // --threads: at least 1, and 1 for mujoco-step.
 void checkThreads(const std::string& path, int threads) {
   if (threads < 1) throw std::invalid_argument("--threads must be at least 1");
@@ -158,11 +161,15 @@ CentipedeRunResult runCentipede(const CentipedeRunOptions& o, std::ostream& log,
 #endif
     return std::make_unique<OurWalker>(c, so);
   };
-  // One untimed step of a throwaway walker of the same path first (MuJoCo's too), as a
-  // benchmark warms up: the process's one-time costs (lazy symbol binding, code paged in,
-  // per-thread tables) are no part of a step's time; the timed walker's own memory is still
-  // first touched by its timed steps.
-  makeWalker()->step();
+  // Untimed steps of a throwaway walker of the same path first (MuJoCo's too), as a benchmark
+  // warms up: the process's one-time costs (lazy symbol binding, code paged in, per-thread
+  // tables) are no part of a step's time. Three steps: a first step, a second (one earlier
+  // solution to start from) and a later one (two) run different code. The timed walker's own
+  // memory is still first touched by its timed steps.
+  {
+    const std::unique_ptr<Walker> w = makeWalker();
+    for (int k = 0; k < kWarmupSteps; ++k) w->step();
+  }
   std::unique_ptr<Walker> sim = makeWalker();
 
   CentipedeRunResult r;
@@ -253,7 +260,7 @@ CentipedeRunResult runCentipede(const CentipedeRunOptions& o, std::ostream& log,
     h5->setAttribute(g, "threads", o.threads);
     h5->setAttribute(g, "mu", o.mu);
     h5->setAttribute(g, "friction_dirs", o.friction_dirs);
-    h5->setAttribute(g, "warmup_steps", 1);
+    h5->setAttribute(g, "warmup_steps", kWarmupSteps);
     sim->writeAttributes(*h5, g);
     h5->setAttribute(g, "time_dynamics", r.times.dynamics);
     h5->setAttribute(g, "time_collision", r.times.collision);
