@@ -258,8 +258,8 @@ def main():
                       "pyramidal 4-edge cone and PGS, but MuJoCo's soft contacts on 1 cm tip "
                       "spheres, so only the time per step with every leg in contact and "
                       "whether it walks are comparable); ms per step (the mean over the "
-                      "run's steps, each run after one untimed step of a throwaway instance of "
-                      "its path, MuJoCo's included, as a benchmark warms up), ratios = "
+                      "run's steps, each run after three untimed steps of a throwaway instance "
+                      "of its path, MuJoCo's included, as a benchmark warms up), ratios = "
                       "other / best:",
                       "",
                       "| S | n (DOF) | best path | best ms | lapack ms | lapack / best | "
