@@ -263,7 +263,6 @@ MINV_CLONES_FLAT void solveInto(const ContactProblem& p, const ContactSolverOpti
   if (w.Gd.size() < k * m) w.Gd.resize(k * m);
   if (w.Rd.size() < m) w.Rd.resize(m), w.g.resize(m);
   if (w.u.size() < 3 * nc) w.u.resize(3 * nc);
-  auto u = w.u.head(3 * nc);
   auto g = w.g.head(m);
   double *Gd = w.Gd.data(), *Rd = w.Rd.data();
   // Diagonal blocks G_cc = Wᵀ A_cc W (k×k each, side by side), the reciprocals of their
@@ -277,7 +276,7 @@ MINV_CLONES_FLAT void solveInto(const ContactProblem& p, const ContactSolverOpti
   if (s.beta.any())
     contactVelocities(p, s.lambda, w.u);
   else
-    u = p.v0;
+    w.u.head(3 * nc) = p.v0;
   // The scale of the relative test: ‖g0‖∞, g0 = Wᵀ(v0 + [b; 0; 0]).
   for (int c = 0; c < nc; ++c) generatorVelocities(Wd, p.v0.data(), p.b, c, k, g.data() + k * c);
   const double tol = o.tolerance * std::max(g.cwiseAbs().maxCoeff(), o.floor);

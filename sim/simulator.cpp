@@ -86,7 +86,6 @@ Simulator::Simulator(const Model& model, std::vector<ContactPoint> points, SimOp
   active_.reserve(P), bodies_.reserve(M), wrenches_.reserve(M), vel_.reserve(M), bias_.reserve(P);
   prob_.A.setZero(M, M);
   prob_.v0.setZero(M), prob_.b.setZero(P), warm_beta_.setZero(o_.friction_dirs * P);
-  lambda_.setZero(M);
   if (solver_) J_.setZero(nv, M), X_.setZero(nv, M), Xt_.setZero(M, nv);
 }
 
@@ -205,14 +204,13 @@ void Simulator::step() {
       else
         out.setZero();
     }
-    ContactSolution& sol = sol_;
-    solveMaxDissipation(prob_, warm_beta_, o_.contact, sol);
+    solveMaxDissipation(prob_, warm_beta_, o_.contact, sol_);
     for (int c = 0; c < nc; ++c) {
       std::swap(warm_prev_[active_[c]], warm_[active_[c]]);
-      warm_[active_[c]] = sol.beta.segment(k * c, k);
+      warm_[active_[c]] = sol_.beta.segment(k * c, k);
     }
-    lambda_ = sol.lambda;
-    residuals_ = sol.residuals;
+    lambda_ = sol_.lambda;
+    residuals_ = sol_.residuals;
     st.solve = since(t0);
 
     // update: v⁺ = v* + M⁻¹Jλ, then q.

@@ -105,7 +105,8 @@ class Simulator {
   const Eigen::VectorXd& lastImpulses() const { return lambda_; }  // 3 per active contact
   const std::vector<int>& activeContacts() const { return active_; }
   // The last step's contact problem (A, v0, b, μ, k; nothing if it had no contact) and the
-  // warm start β it was solved from: for recording problems and replaying them.
+  // warm start β it was solved from: for recording problems and replaying them. Before the
+  // first step both hold zeros sized for every point in contact (allocated up front).
   const ContactProblem& lastProblem() const { return prob_; }
   const Eigen::VectorXd& lastWarmStart() const { return warm_beta_; }
   // Kinematics at the configuration of the last step's start.

@@ -231,43 +231,47 @@ TEST(ContactInertia, ContactsOnTheFloatingBaseOnly) {
   check(m, q, c, "base only");
 }
 
+// A random serial chain of n bodies at a random configuration (seeds seed, seed + 100, and
+// seed + 200 for the contacts), its contacts placed by place(model, kin, rng, contacts).
+template <class Place>
+void chainCase(int n, std::uint64_t seed, bool floating, JointSet joints, const std::string& what,
+               Place&& place) {
+  const Model m = randomTree({.topology = Topology::Serial,
+                              .n = n,
+                              .seed = seed,
+                              .floating_base = floating,
+                              .joints = joints});
+  const Eigen::VectorXd q = randomConfiguration(m, seed + 100);
+  const Kinematics<double> kin = kinematicsAt(m, q);
+  Rng rng(seed + 200);
+  Contacts c;
+  place(m, kin, rng, c);
+  check(m, q, c, what);
+}
+
 // Serial chains (revolute and mixed) with many directions at the tip and a few in the middle:
 // long contact-free stretches carry > 6 directions, so the composite propagators Φ are used.
 TEST(ContactInertia, SerialChainsCompositePropagators) {
-  for (int trial = 0; trial < 6; ++trial) {
-    const Model m = randomTree({.topology = Topology::Serial,
-                                .n = 15 + 5 * trial,
-                                .seed = 700u + trial,
-                                .floating_base = trial % 2 == 1,
-                                .joints = trial < 3 ? JointSet::Revolute : JointSet::Mixed});
-    const Eigen::VectorXd q = randomConfiguration(m, 800 + trial);
-    const Kinematics<double> kin = kinematicsAt(m, q);
-    Rng rng(900 + trial);
-    Contacts c;
-    const int tip = m.nb() - 1, mid = m.nb() / 2;
-    for (int e = 0; e < 4; ++e) c.point(tip, nearBody(kin, tip, rng));
-    c.point(mid, nearBody(kin, mid, rng));
-    check(m, q, c, "chain " + std::to_string(trial));
-  }
+  for (int trial = 0; trial < 6; ++trial)
+    chainCase(15 + 5 * trial, 700u + trial, trial % 2 == 1,
+              trial < 3 ? JointSet::Revolute : JointSet::Mixed, "chain " + std::to_string(trial),
+              [](const Model& m, const Kinematics<double>& kin, Rng& rng, Contacts& c) {
+                const int tip = m.nb() - 1, mid = m.nb() / 2;
+                for (int e = 0; e < 4; ++e) c.point(tip, nearBody(kin, tip, rng));
+                c.point(mid, nearBody(kin, mid, rng));
+              });
 }
 
 // One or two points (3 or 6 directions: deferred) or three (9: not) at the tip of a chain,
 // nothing else: the tip's own pairs climb the whole chain and are finished at the root.
 TEST(ContactInertia, DeferredToTheRoot) {
-  for (int trial = 0; trial < 6; ++trial) {
-    const Model m = randomTree({.topology = Topology::Serial,
-                                .n = 4 + 3 * trial,
-                                .seed = 1100u + trial,
-                                .floating_base = trial % 2 == 1,
-                                .joints = JointSet::Mixed});
-    const Eigen::VectorXd q = randomConfiguration(m, 1200 + trial);
-    const Kinematics<double> kin = kinematicsAt(m, q);
-    Rng rng(1300 + trial);
-    Contacts c;
-    const int tip = m.nb() - 1;
-    for (int e = 0; e <= trial % 3; ++e) c.point(tip, nearBody(kin, tip, rng));
-    check(m, q, c, "tip of chain " + std::to_string(trial));
-  }
+  for (int trial = 0; trial < 6; ++trial)
+    chainCase(4 + 3 * trial, 1100u + trial, trial % 2 == 1, JointSet::Mixed,
+              "tip of chain " + std::to_string(trial),
+              [&](const Model& m, const Kinematics<double>& kin, Rng& rng, Contacts& c) {
+                const int tip = m.nb() - 1;
+                for (int e = 0; e <= trial % 3; ++e) c.point(tip, nearBody(kin, tip, rng));
+              });
 }
 
 // A forest: two trees side by side (no common ancestor, so their directions do not couple).
