@@ -3,7 +3,10 @@
 #include <cpuid.h>
 
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 namespace minv {
@@ -117,6 +120,16 @@ CpuIdentity cpuIdentity() {
                                          : nullptr;
     if (uarch) c.signature += std::string(" (") + uarch + ")";
   }
+  // Intel's server cores, where the model tells it.
+  if (c.vendor == "GenuineIntel" && family == 0x6) {
+    const char* uarch = model == 0x55                    ? "Skylake-SP/Cascade Lake"
+                        : model == 0x6a || model == 0x6c ? "Ice Lake-SP"
+                        : model == 0x8f                  ? "Sapphire Rapids"
+                        : model == 0xcf                  ? "Emerald Rapids"
+                        : model == 0xad || model == 0xae ? "Granite Rapids"
+                                                         : nullptr;
+    if (uarch) c.signature += std::string(" (") + uarch + ")";
+  }
   // The vector extensions that matter to minv's kernels and to Eigen.
   const Regs l7 = cpuid(7);
   const Feature ext[] = {
@@ -127,6 +140,17 @@ CpuIdentity cpuIdentity() {
   for (const Feature& f : ext)
     if (f.present) c.extensions += (c.extensions.empty() ? "" : " ") + std::string(f.name);
   return c;
+}
+
+bool streamStridedRows() {
+  const char* forced = std::getenv("MINV_ABI_ROWS");
+  if (forced && *forced) {
+    if (std::strcmp(forced, "stream") == 0) return true;
+    if (std::strcmp(forced, "plain") == 0) return false;
+    throw std::invalid_argument(std::string("MINV_ABI_ROWS must be stream or plain, not '") +
+                                forced + "'");
+  }
+  return cpuIdentity().vendor == "GenuineIntel";
 }
 
 }  // namespace minv

@@ -31,6 +31,16 @@ std::optional<Isa> isaFromName(const std::string& name);
 // its build implies.
 bool cpuRuns(Isa isa, std::string* why = nullptr);
 
+// Whether pieces of a few cache lines written one column apart into a large column-major
+// matrix (the rows of M⁻¹ that abi mirrors: 16 doubles per column) go out as non-temporal
+// full-line stores rather than plain ones. Chosen by vendor from measurements (abi's inverse,
+// serial chain, one thread): streamed was 2.2× faster at n = 4096 and 1.3× at n = 1024 on an
+// Intel Xeon (Emerald Rapids), where each plain piece first reads its lines and the column
+// stride sends them all to one cache set; it was 25–35 % slower at n = 4096 on AMD Zen 5.
+// MINV_ABI_ROWS=stream|plain forces either (std::invalid_argument for another value); read
+// at each call (abi reads it in prepare()).
+bool streamStridedRows();
+
 // The widest vector extension the including translation unit is compiled for (a macro, so that
 // each library and each level's module reports its own flags).
 #if defined(__AVX512F__)

@@ -24,6 +24,8 @@
 // a store; blocks run in OpenMP threads (setThreads). Multi-DOF joints make D a k×k block.
 // Cost: Σ_c (depth(b_c) + b_c) body steps ≈ n²/2 + Σ depth for M⁻¹ (Θ(n²)); Θ(m·nb) for M⁻¹R.
 // Scratch Θ(nb·W) per thread, allocated in the workspace; the sweeps do not allocate.
+// Numbers below DBL_MIN are flushed to zero while the sweeps run (core/fpenv.hpp): an absolute
+// change below 2.2e-308 that keeps Intel cores off their slow subnormal path at large n.
 #pragma once
 
 #include <immintrin.h>
@@ -36,6 +38,7 @@
 
 #include "core/articulated.hpp"
 #include "core/counting.hpp"
+#include "core/fpenv.hpp"
 #include "core/kinematics.hpp"
 #include "solvers/solver.hpp"
 
@@ -131,6 +134,9 @@ struct AbiWorkspace {
   std::vector<AbiLanes<T, kAbiLanes<T>>> wide;
   std::vector<AbiLanes<T, kHalf>> half;
   std::vector<AbiLanes<T, 1>> narrow;
+
+  // The rows abi mirrors streamed (core/cpu.hpp: streamStridedRows) or stored plainly.
+  bool stream_rows = false;
 
   explicit AbiWorkspace(const Model& m, int threads = 1)
       : wide(threads, AbiLanes<T, kAbiLanes<T>>(m)),
@@ -255,9 +261,10 @@ inline void abiForwardBody(const Kinematics<T>& kin, const Articulated<T>& art, 
 // written once and not read again by the inverse, so reading each line for ownership before
 // overwriting it would only double the memory traffic. abiInverse fences them (abiStoreFence).
 // Used for the column strips above each block's diagonal (whole 8-row lines): on Zen 5 their
-// writes took 16–25 % less time at n = 1024 and 2048 and the same at 4096. Streaming the rows
-// left of the diagonal too (two lines per column, one column apart) was 25–35 % slower at
-// n = 4096, so those stay plain stores.
+// writes took 16–25 % less time at n = 1024 and 2048 and the same at 4096. The rows left of
+// the diagonal (two lines per column, one column apart) are streamed where the CPU gains by it
+// (core/cpu.hpp, streamStridedRows: 2.2× faster at n = 4096 on an Intel Xeon, 25–35 % slower
+// on Zen 5) and stored plainly elsewhere.
 template <class T>
 inline void abiStoreLine(T* dst, const T* src) {
   if constexpr (std::is_same_v<T, double>) {
@@ -283,21 +290,26 @@ inline void abiStoreFence() {
 
 // Where the forward sweep also stores Δq̇ as it goes (the stores then overlap the next body's
 // arithmetic): lane w of DOF v < end to x[w + v·ld], for the first `width` lanes (x = nullptr:
-// nowhere).
+// nowhere); with `stream`, whole blocks as full lines without reading them (abiStoreLine).
 template <class T>
 struct LaneRows {
   T* x = nullptr;
   std::size_t ld = 0;
   int end = 0, width = 0;
+  bool stream = false;
 
   template <class Lanes>
   void store(const Lanes& u, int v, int k) const {
     if (!x) return;
+    constexpr int W = Lanes::value_type::SizeAtCompileTime;
     for (int j = 0; j < k && v + j < end; ++j) {
-      if (width == static_cast<int>(u[v + j].size()))
-        for (int w = 0; w < u[v + j].size(); ++w) x[w + (v + j) * ld] = u[v + j](w);
+      T* dst = x + (v + j) * ld;
+      if (width < W)
+        std::copy_n(u[v + j].data(), width, dst);
+      else if (W % 8 == 0 && stream)
+        for (int w = 0; w < W; w += 8) abiStoreLine(dst + w, u[v + j].data() + w);
       else
-        std::copy_n(u[v + j].data(), width, x + (v + j) * ld);
+        for (int w = 0; w < W; ++w) dst[w] = u[v + j](w);
     }
   }
 };
@@ -339,7 +351,7 @@ MINV_FLATTEN void abiForward(const Model& model, const Kinematics<T>& kin,
 template <class T, int W, class Out, class Mark>
 MINV_FLATTEN void abiInverseBlock(const Model& model, const Kinematics<T>& kin,
                                   const Articulated<T>& art, AbiLanes<T, W>& ws, int c0, Out& X,
-                                  Mark& mark, bool upper = false) {
+                                  Mark& mark, bool upper = false, bool stream = false) {
   const int nv = model.nv(), width = std::min(W, nv - c0);
   const int last = model.dofBody(c0 + width - 1);
   // The unit impulses e_{c0+w}, one per lane, up to the roots; then Δq̇ of bodies 0 … last.
@@ -349,7 +361,8 @@ MINV_FLATTEN void abiInverseBlock(const Model& model, const Kinematics<T>& kin,
   T* x = X.data();
   abiBackward<T, W, true>(model, kin, art, ws, last, c0, width);
   mark("impulse propagation");
-  abiForward<T, W>(model, kin, art, ws, last, LaneRows<T>{upper ? nullptr : x + c0, ld, c0, width});
+  abiForward<T, W>(model, kin, art, ws, last,
+                   LaneRows<T>{upper ? nullptr : x + c0, ld, c0, width, stream});
   mark("velocity updates");
   // Columns c0 … above the diagonal tile: X(v, c0 + w), 8-row tiles through a buffer (lanes
   // to columns) streamed out a line at a time, then the rows of a last partial tile.
@@ -382,17 +395,22 @@ void abiInverse(const Model& model, const Kinematics<T>& kin, const Articulated<
   auto block = [&](int b, int thread, auto& mk) {
     if (b == blocks - 1 && halfLast)
       abiInverseBlock<T, AbiWorkspace<T>::kHalf>(model, kin, art, ws.half[thread], b * W, Minv, mk,
-                                                 upper);
+                                                 upper, ws.stream_rows);
     else
-      abiInverseBlock<T, W>(model, kin, art, ws.wide[thread], b * W, Minv, mk, upper);
+      abiInverseBlock<T, W>(model, kin, art, ws.wide[thread], b * W, Minv, mk, upper,
+                            ws.stream_rows);
   };
+  // Subnormals flushed to zero on every thread (core/fpenv.hpp): far entries of a long chain
+  // underflow, and on Intel cores each operation on them takes a microcode assist.
   if (ws.threads() == 1 || !std::is_same_v<std::decay_t<Mark>, NoMark>) {
+    FlushSubnormals flush;
     for (int b = 0; b < blocks; ++b) block(b, 0, mark);
     abiStoreFence<T>();
     return;
   }
 #pragma omp parallel num_threads(ws.threads())
   {
+    FlushSubnormals flush;
     NoMark none;
     // Blocks are independent and write disjoint parts of Minv; later ones cost more: the
     // costliest first, handed out as threads come free.
@@ -439,12 +457,15 @@ void abiSolve(const Model& model, const Kinematics<T>& kin, const Articulated<T>
     else
       abiSolveBlock<T, W>(model, kin, art, ws.wide[thread], R, b * W, X, mk);
   };
+  // Subnormals flushed to zero on every thread, as in abiInverse.
   if (ws.threads() == 1 || blocks == 1 || !std::is_same_v<std::decay_t<Mark>, NoMark>) {
+    FlushSubnormals flush;
     for (int b = 0; b < blocks; ++b) block(b, 0, mark);
     return;
   }
 #pragma omp parallel num_threads(ws.threads())
   {
+    FlushSubnormals flush;
     NoMark none;
     // Every block sweeps the whole tree: equal costs, handed out in equal shares.
 #pragma omp for schedule(static)

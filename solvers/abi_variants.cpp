@@ -129,7 +129,13 @@ std::string abiSummary() {
   }
   const char* forced = std::getenv("MINV_ISA");
   s += forced && *forced ? ", forced by MINV_ISA; MINV_ISA=" : ", chosen from CPUID; MINV_ISA=";
-  return s + levelList() + " forces one";
+  s += levelList() + " forces one; mirrored rows ";
+  try {
+    s += streamStridedRows() ? "streamed" : "plain";
+  } catch (const std::exception& e) {
+    s += e.what();
+  }
+  return s + " (MINV_ABI_ROWS=stream|plain)";
 }
 
 }  // namespace minv

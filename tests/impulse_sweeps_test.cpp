@@ -13,6 +13,7 @@
 #include "core/impulse_sweeps.hpp"
 
 #include <gtest/gtest.h>
+#include <immintrin.h>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
@@ -20,6 +21,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <limits>
 #include <memory>
 #include <set>
@@ -255,26 +257,35 @@ std::vector<Isa> abiLevelsHere() {
   return out;
 }
 
-// abi's inverse() against the reference, column by column.
+// abi's inverse() against the reference, column by column, with the mirrored rows streamed
+// and stored plainly (MINV_ABI_ROWS, read in prepare(); core/cpu.hpp).
 TEST(ImpulseSweeps, AbiInverseMatchesReference) {
   ASSERT_FALSE(abiLevelsHere().empty());
+  const char* was = std::getenv("MINV_ABI_ROWS");
+  const std::string saved = was ? was : "";
   Worst worst;
   for (const Case& c : cases()) {
     const int n = c.model.nv();
     const Eigen::MatrixXd ref = reference(c);
-    for (Isa level : abiLevelsHere()) {
-      const std::string name = std::string("abi at ") + isaName(level);
-      auto abi = makeAbiAt(level);
-      abi->prepare(c.model);
-      abi->configure(c.q);
-      Eigen::MatrixXd X(n, n);
-      abi->inverse(X);
-      const double e = relativeError(X, ref);
-      EXPECT_LE(e, c.tol) << name << " " << c.name << " nv=" << n << " nv mod 16=" << n % 16 << ": "
-                          << worstColumn(X, ref);
-      worst.add(e, c.tol, name + " " + c.name);
-    }
+    for (Isa level : abiLevelsHere())
+      for (const char* rows : {"plain", "stream"}) {
+        const std::string name = std::string("abi at ") + isaName(level) + ", rows " + rows;
+        setenv("MINV_ABI_ROWS", rows, 1);
+        auto abi = makeAbiAt(level);
+        abi->prepare(c.model);
+        abi->configure(c.q);
+        Eigen::MatrixXd X(n, n);
+        abi->inverse(X);
+        const double e = relativeError(X, ref);
+        EXPECT_LE(e, c.tol) << name << " " << c.name << " nv=" << n << " nv mod 16=" << n % 16
+                            << ": " << worstColumn(X, ref);
+        worst.add(e, c.tol, name + " " + c.name);
+      }
   }
+  if (was)
+    setenv("MINV_ABI_ROWS", saved.c_str(), 1);
+  else
+    unsetenv("MINV_ABI_ROWS");
 }
 
 // abi's solve(R) against the reference's response to each column of R.
@@ -310,6 +321,61 @@ TEST(ImpulseSweeps, AbiSolveMatchesReference) {
         EXPECT_LE(e, c.tol) << name << " " << c.name << " nv=" << n << " m=" << m << ": "
                             << worstColumn(X, ref);
         worst.add(e, c.tol, name + " " + c.name + " m=" + std::to_string(m));
+      }
+    }
+  }
+}
+
+// Far along a long chain M⁻¹'s entries underflow (on this serial chain of n = 4096 about a
+// quarter fall below DBL_MIN): abi flushes them to zero at every level (core/fpenv.hpp), agrees
+// with the reference (which keeps them subnormal) entry by entry elsewhere, and leaves the
+// caller's floating-point mode as it found it, flush-to-zero on or off.
+TEST(ImpulseSweeps, AbiFlushesSubnormalsAndRestoresTheMode) {
+  ASSERT_FALSE(abiLevelsHere().empty());
+  constexpr double kTol = 1e-9;  // relative, per column (the chain's κ is large)
+  const Model model = randomTree({Topology::Serial, 4096, 1, false, JointSet::Revolute});
+  const int n = model.nv();
+  const Eigen::VectorXd q = randomConfiguration(model, 3);
+  Kinematics<double> kin(model);
+  computeKinematics<double>(model, q, kin);
+  Articulated<double> art(model);
+  articulatedInertias<double>(model, kin, art);
+  // Reference columns at both ends and in the middle, subnormals kept.
+  const std::vector<int> cols = {0, n / 2, n - 1};
+  Eigen::MatrixXd ref(n, static_cast<Eigen::Index>(cols.size()));
+  ImpulseWorkspace<double> ws(model);
+  for (std::size_t j = 0; j < cols.size(); ++j)
+    impulseResponse<double>(model, kin, art, Eigen::VectorXd::Unit(n, cols[j]), ref.col(j), ws);
+  const double tiny = std::numeric_limits<double>::min();
+  auto subnormals = [&](const auto& x) {
+    return (x.array() != 0 && x.array().abs() < tiny).count();
+  };
+  ASSERT_GT(subnormals(ref), n / 10) << "the case no longer underflows";
+  Eigen::MatrixXd X(n, n);
+  for (Isa level : abiLevelsHere()) {
+    const std::string name = std::string("abi at ") + isaName(level);
+    auto abi = makeAbiAt(level);
+    abi->prepare(model);
+    abi->configure(q);
+    for (unsigned ftz : {0u, 1u << 15}) {
+      const unsigned before = _mm_getcsr();
+      _mm_setcsr((before & ~(1u << 15)) | ftz);
+      const unsigned mode = _mm_getcsr();
+      abi->inverse(X);
+      EXPECT_EQ(_mm_getcsr(), mode) << name << ": the caller's MXCSR changed";
+      _mm_setcsr(before);
+      EXPECT_EQ(subnormals(X), 0) << name;
+      // Column by column within kTol of the reference, and where the reference's entry is
+      // subnormal abi's is zero or as negligible (the two round differently near DBL_MIN).
+      for (std::size_t j = 0; j < cols.size(); ++j) {
+        const auto r = ref.col(static_cast<Eigen::Index>(j));
+        const auto x = X.col(cols[j]);
+        EXPECT_LE((x - r).norm(), kTol * r.norm()) << name << " column " << cols[j];
+        for (int i = 0; i < n; ++i) {
+          if (std::abs(r(i)) < tiny) {
+            ASSERT_LT(std::abs(x(i)), 1e-300) << name << " entry (" << i << ", " << cols[j] << ")";
+          }
+        }
       }
     }
   }

@@ -83,7 +83,8 @@ Provenance collectProvenance() {
   try {
     const AbiVariantApi& v = abiVariant(abiLevel());
     p.abi_isa = std::string(v.level) + " (" + v.target + "; widest " + v.widest + ", " +
-                std::to_string(v.lanes) + " lanes)";
+                std::to_string(v.lanes) + " lanes; mirrored rows " +
+                (streamStridedRows() ? "streamed" : "plain") + ")";
   } catch (const std::exception& e) {
     p.abi_isa = std::string("none: ") + e.what();
   }
