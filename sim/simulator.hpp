@@ -1,8 +1,10 @@
 // Velocity-level (impulse-based) time stepping with point contacts on the ground plane z = 0.
 //
-// One step of size h, in five timed components:
-//   dynamics     kinematics, articulated-body inertias, controller torques τ, ABA forward
-//                dynamics q̈ (sim/dynamics.hpp), v* = v + h q̈: the same for every path.
+// One step of size h: the controller's torques τ(t, q, v) first, untimed (MuJoCo's mj_step,
+// timed beside ours, is given the same torques computed outside it), then five timed
+// components:
+//   dynamics     kinematics, articulated-body inertias, ABA forward dynamics q̈
+//                (sim/dynamics.hpp), v* = v + h q̈: the same for every path.
 //   collision    each contact point's height φ; points with φ < margin are contacts, with
 //                normal z and tangents x, y; their velocities J₂ᵀv* and the bias
 //                b = φ/h if φ ≥ 0 (speculative: the point may just reach the plane) or

@@ -107,8 +107,10 @@ Eigen::Vector3d centreOfMass(const Model& m, const Kinematics<double>& kin) {
   return c / mass;
 }
 
-// Untimed steps of a throwaway walker before a timed run (see runCentipede).
+// Untimed steps of a throwaway walker before a timed run (see CentipedeRun).
 constexpr int kWarmupSteps = 3;
+// A sweep point's paths take turns in this many rounds of steps.
+constexpr int kRounds = 20;
 
 // --threads: at least 1, and 1 for mujoco-step.
 void checkThreads(const std::string& path, int threads) {
@@ -123,10 +125,36 @@ std::string fmt(const char* f, double a, double b = 0, double c = 0, double d = 
   return buf;
 }
 
-}  // namespace
+// One timed run, step by step: runCentipede() takes all its steps at once, the sweep takes the
+// steps of every path of one S in turns. Construction checks the options, warms up and records
+// the first frame; finish() writes the run.
+class CentipedeRun {
+ public:
+  CentipedeRun(const CentipedeRunOptions& o, std::ostream& log);
+  bool done() const { return k_ == o_.steps; }
+  // Up to `count` more timed steps.
+  void steps(int count);
+  CentipedeRunResult finish(H5Writer* h5, const std::string& group);
 
-CentipedeRunResult runCentipede(const CentipedeRunOptions& o, std::ostream& log, H5Writer* h5,
-                                const std::string& group) {
+ private:
+  void record(int f);
+  CentipedeRunOptions o_;
+  std::ostream& log_;
+  bool mujoco_;
+  Centipede c_;
+  std::unique_ptr<Walker> sim_;
+  CentipedeRunResult r_;
+  Kinematics<double> kin_;
+  Eigen::Vector3d head0_, com0_;
+  int every_, F_, progress_every_, k_ = 0;
+  Eigen::MatrixXd step_times_, com_, seg_, hips_, knees_, tips_;
+  Eigen::VectorXd frame_time_, step_total_;
+  std::vector<int> contacts_, iterations_;
+  double contact_sum_ = 0, wall_ = 0;
+};
+
+// The centipede of the options (bad ones throw before anything is built).
+Centipede checkedCentipede(const CentipedeRunOptions& o) {
   if (o.steps < 1) throw std::invalid_argument("--steps must be at least 1");
   if (!(o.dt > 0)) throw std::invalid_argument("--dt must be positive");
   const bool mujoco = o.solver == kMujocoStepPath;
@@ -141,8 +169,16 @@ CentipedeRunResult runCentipede(const CentipedeRunOptions& o, std::ostream& log,
   CentipedeOptions co;
   co.segments = o.segments;
   co.segment_joint = segmentJointFromName(o.segment_joint);
-  const Centipede c = makeCentipede(co);
-  const Model& m = c.model;
+  return makeCentipede(co);
+}
+
+CentipedeRun::CentipedeRun(const CentipedeRunOptions& o, std::ostream& log)
+    : o_(o),
+      log_(log),
+      mujoco_(o.solver == kMujocoStepPath),
+      c_(checkedCentipede(o)),
+      kin_(c_.model) {
+  const Model& m = c_.model;
   SimOptions so;
   so.dt = o.dt;
   so.mu = o.mu;
@@ -151,15 +187,15 @@ CentipedeRunResult runCentipede(const CentipedeRunOptions& o, std::ostream& log,
   so.threads = o.threads;
   auto makeWalker = [&]() -> std::unique_ptr<Walker> {
 #ifdef MINV_HAVE_MUJOCO
-    if (mujoco) {
+    if (mujoco_) {
       MujocoStepOptions mo;
       mo.dt = o.dt;
       mo.gravity = so.gravity;
       mo.mu = o.mu;
-      return std::make_unique<MujocoWalker>(c, mo);
+      return std::make_unique<MujocoWalker>(c_, mo);
     }
 #endif
-    return std::make_unique<OurWalker>(c, so);
+    return std::make_unique<OurWalker>(c_, so);
   };
   // Untimed steps of a throwaway walker of the same path first (MuJoCo's too), as a benchmark
   // warms up: the process's one-time costs (lazy symbol binding, code paged in, per-thread
@@ -170,98 +206,108 @@ CentipedeRunResult runCentipede(const CentipedeRunOptions& o, std::ostream& log,
     const std::unique_ptr<Walker> w = makeWalker();
     for (int k = 0; k < kWarmupSteps; ++k) w->step();
   }
-  std::unique_ptr<Walker> sim = makeWalker();
+  sim_ = makeWalker();
 
-  CentipedeRunResult r;
-  r.nv = m.nv();
-  r.engine = mujoco ? "mujoco" : "minv";
-  Kinematics<double> kin(m);
-  computeKinematics<double>(m, sim->q(), kin);
-  const Eigen::Vector3d head0 = kin.X[0].p, com0 = centreOfMass(m, kin);
+  r_.nv = m.nv();
+  r_.engine = mujoco_ ? "mujoco" : "minv";
+  computeKinematics<double>(m, sim_->q(), kin_);
+  head0_ = kin_.X[0].p, com0_ = centreOfMass(m, kin_);
 
-  const int S = o.segments, L = c.legs();
-  const int every = o.frames > 0 ? std::max(1, o.steps / o.frames) : 0;
-  const int F = o.frames > 0 ? o.steps / every + 1 : 0;
-  Eigen::MatrixXd stepTimes(o.steps, 5), com(F, 3), seg(F, 3 * S), hips(F, 3 * L), knees(F, 3 * L),
-      tipsXyz(F, 3 * L);
-  Eigen::VectorXd frameTime(F), stepTotal(o.steps);
-  std::vector<int> contacts(o.steps), iterations(o.steps);
-  auto record = [&](int f) {
-    computeKinematics<double>(m, sim->q(), kin);
-    frameTime(f) = sim->time();
-    com.row(f) = centreOfMass(m, kin).transpose();
-    for (int s = 0; s < S; ++s) seg.row(f).segment<3>(3 * s) = kin.X[c.segment_body[s]].p;
-    for (int l = 0; l < L; ++l) {
-      hips.row(f).segment<3>(3 * l) = kin.X[c.upper_body[l]].p;
-      const Pose<double>& X = kin.X[c.lower_body[l]];
-      knees.row(f).segment<3>(3 * l) = X.p;
-      tipsXyz.row(f).segment<3>(3 * l) = X.p + X.R * c.tip;
-    }
-  };
-  if (F > 0) record(0);
+  const int S = o.segments, L = c_.legs();
+  every_ = o.frames > 0 ? std::max(1, o.steps / o.frames) : 0;
+  F_ = o.frames > 0 ? o.steps / every_ + 1 : 0;
+  step_times_.resize(o.steps, 5), com_.resize(F_, 3), seg_.resize(F_, 3 * S);
+  hips_.resize(F_, 3 * L), knees_.resize(F_, 3 * L), tips_.resize(F_, 3 * L);
+  frame_time_.resize(F_), step_total_.resize(o.steps);
+  contacts_.assign(o.steps, 0), iterations_.assign(o.steps, 0);
+  if (F_ > 0) record(0);
+  progress_every_ = o.progress_lines > 0 ? std::max(1, o.steps / o.progress_lines) : 0;
 
-  log << "# centipede: " << S << " segments (" << o.segment_joint << " segment joints), nv "
-      << m.nv() << ", " << L << " legs; " << o.steps << " steps of " << o.dt << " s; path "
-      << o.solver << "\n";
-  log.flush();
+  log_ << "# centipede: " << S << " segments (" << o.segment_joint << " segment joints), nv "
+       << m.nv() << ", " << L << " legs; " << o.steps << " steps of " << o.dt << " s; path "
+       << o.solver << "\n";
+  log_.flush();
+}
+
+void CentipedeRun::record(int f) {
+  const Model& m = c_.model;
+  computeKinematics<double>(m, sim_->q(), kin_);
+  frame_time_(f) = sim_->time();
+  com_.row(f) = centreOfMass(m, kin_).transpose();
+  for (int s = 0; s < o_.segments; ++s)
+    seg_.row(f).segment<3>(3 * s) = kin_.X[c_.segment_body[s]].p;
+  for (int l = 0; l < c_.legs(); ++l) {
+    hips_.row(f).segment<3>(3 * l) = kin_.X[c_.upper_body[l]].p;
+    const Pose<double>& X = kin_.X[c_.lower_body[l]];
+    knees_.row(f).segment<3>(3 * l) = X.p;
+    tips_.row(f).segment<3>(3 * l) = X.p + X.R * c_.tip;
+  }
+}
+
+void CentipedeRun::steps(int count) {
   const auto wall0 = std::chrono::steady_clock::now();
-  const int progressEvery = o.progress_lines > 0 ? std::max(1, o.steps / o.progress_lines) : 0;
-  double contactSum = 0;
-  for (int k = 0; k < o.steps; ++k) {
-    sim->step();
-    const StepTimes t = sim->lastTimes();
-    stepTimes.row(k) << t.dynamics, t.collision, t.matrices, t.solve, t.update;
-    stepTotal(k) = sim->lastTotal();
-    r.times += t;
-    r.time_total += stepTotal(k);
-    contacts[k] = sim->lastContacts();
-    contactSum += contacts[k];
-    if (const ContactResiduals* res = sim->lastResiduals()) {
-      iterations[k] = res->iterations;
-      r.max_penetration = std::max(r.max_penetration, res->penetration);
-      r.max_cone = std::max(r.max_cone, res->cone);
-      r.max_complementarity = std::max(r.max_complementarity, res->complementarity);
-      r.max_kkt = std::max(r.max_kkt, res->kkt);
-      r.max_pgs_iterations = std::max(r.max_pgs_iterations, res->iterations);
-      r.unconverged_steps += res->converged ? 0 : 1;
+  for (const int end = std::min(o_.steps, k_ + count); k_ < end; ++k_) {
+    const int k = k_;
+    sim_->step();
+    const StepTimes t = sim_->lastTimes();
+    step_times_.row(k) << t.dynamics, t.collision, t.matrices, t.solve, t.update;
+    step_total_(k) = sim_->lastTotal();
+    r_.times += t;
+    r_.time_total += step_total_(k);
+    contacts_[k] = sim_->lastContacts();
+    contact_sum_ += contacts_[k];
+    if (const ContactResiduals* res = sim_->lastResiduals()) {
+      iterations_[k] = res->iterations;
+      r_.max_penetration = std::max(r_.max_penetration, res->penetration);
+      r_.max_cone = std::max(r_.max_cone, res->cone);
+      r_.max_complementarity = std::max(r_.max_complementarity, res->complementarity);
+      r_.max_kkt = std::max(r_.max_kkt, res->kkt);
+      r_.max_pgs_iterations = std::max(r_.max_pgs_iterations, res->iterations);
+      r_.unconverged_steps += res->converged ? 0 : 1;
     }
-    if (!sim->v().allFinite())
+    if (!sim_->v().allFinite())
       throw std::runtime_error("the simulation diverged (non-finite velocity)");
-    if (every > 0 && (k + 1) % every == 0) record((k + 1) / every);
-    if (progressEvery > 0 && ((k + 1) % progressEvery == 0 || k + 1 == o.steps)) {
+    if (every_ > 0 && (k + 1) % every_ == 0) record((k + 1) / every_);
+    if (progress_every_ > 0 && ((k + 1) % progress_every_ == 0 || k + 1 == o_.steps)) {
       const double wall =
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
-      log << fmt("step %6.0f", k + 1) << "/" << o.steps
-          << fmt("  t=%.4f s  contacts=%2.0f  head x=%+.4f m  wall %.2f s", sim->time(),
-                 contacts[k], sim->q()(0) - head0.x(), wall)
-          << "\n";
-      log.flush();
+          wall_ + std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+      log_ << fmt("step %6.0f", k + 1) << "/" << o_.steps
+           << fmt("  t=%.4f s  contacts=%2.0f  head x=%+.4f m  wall %.2f s", sim_->time(),
+                  contacts_[k], sim_->q()(0) - head0_.x(), wall)
+           << "  " << sweepPointPath(o_.solver, o_.threads) << "\n";
+      log_.flush();
     }
   }
-  r.mean_contacts = contactSum / o.steps;
-  computeKinematics<double>(m, sim->q(), kin);
-  r.head_dx = kin.X[0].p.x() - head0.x();
-  r.head_dy = kin.X[0].p.y() - head0.y();
-  const Eigen::Vector3d com1 = centreOfMass(m, kin);
-  r.com_dx = com1.x() - com0.x();
-  r.com_dy = com1.y() - com0.y();
+  wall_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+}
 
+CentipedeRunResult CentipedeRun::finish(H5Writer* h5, const std::string& group) {
+  const Model& m = c_.model;
+  CentipedeRunResult& r = r_;
+  const int S = o_.segments, L = c_.legs();
+  r.mean_contacts = contact_sum_ / k_;
+  computeKinematics<double>(m, sim_->q(), kin_);
+  r.head_dx = kin_.X[0].p.x() - head0_.x();
+  r.head_dy = kin_.X[0].p.y() - head0_.y();
+  const Eigen::Vector3d com1 = centreOfMass(m, kin_);
+  r.com_dx = com1.x() - com0_.x();
+  r.com_dy = com1.y() - com0_.y();
   if (h5) {
     const std::string& g = group;
     h5->createGroup(g);
     h5->setAttribute(g, "segments", S);
-    h5->setAttribute(g, "segment_joint", o.segment_joint);
+    h5->setAttribute(g, "segment_joint", o_.segment_joint);
     h5->setAttribute(g, "nv", m.nv());
     h5->setAttribute(g, "nq", m.nq());
     h5->setAttribute(g, "legs", L);
-    h5->setAttribute(g, "steps", o.steps);
-    h5->setAttribute(g, "dt", o.dt);
-    h5->setAttribute(g, "solver", o.solver);
-    h5->setAttribute(g, "threads", o.threads);
-    h5->setAttribute(g, "mu", o.mu);
-    h5->setAttribute(g, "friction_dirs", o.friction_dirs);
+    h5->setAttribute(g, "steps", o_.steps);
+    h5->setAttribute(g, "dt", o_.dt);
+    h5->setAttribute(g, "solver", o_.solver);
+    h5->setAttribute(g, "threads", o_.threads);
+    h5->setAttribute(g, "mu", o_.mu);
+    h5->setAttribute(g, "friction_dirs", o_.friction_dirs);
     h5->setAttribute(g, "warmup_steps", kWarmupSteps);
-    sim->writeAttributes(*h5, g);
+    sim_->writeAttributes(*h5, g);
     h5->setAttribute(g, "time_dynamics", r.times.dynamics);
     h5->setAttribute(g, "time_collision", r.times.collision);
     h5->setAttribute(g, "time_matrices", r.times.matrices);
@@ -269,7 +315,7 @@ CentipedeRunResult runCentipede(const CentipedeRunOptions& o, std::ostream& log,
     h5->setAttribute(g, "time_update", r.times.update);
     h5->setAttribute(g, "time_total", r.time_total);
     h5->setAttribute(g, "mean_contacts", r.mean_contacts);
-    if (!mujoco) {
+    if (!mujoco_) {
       h5->setAttribute(g, "max_penetration", r.max_penetration);
       h5->setAttribute(g, "max_cone", r.max_cone);
       h5->setAttribute(g, "max_complementarity", r.max_complementarity);
@@ -282,21 +328,30 @@ CentipedeRunResult runCentipede(const CentipedeRunOptions& o, std::ostream& log,
     h5->setAttribute(g, "com_dx", r.com_dx);
     h5->setAttribute(g, "com_dy", r.com_dy);
     const std::string p = g == "/" ? "" : g + "/";
-    h5->writeMatrix(p + "step_times", stepTimes);
-    h5->writeVector(p + "step_total", stepTotal);
-    h5->writeIntVector(p + "contacts", contacts);
-    if (!mujoco) h5->writeIntVector(p + "pgs_iterations", iterations);
-    h5->writeVector(p + "q_final", sim->q());
-    if (F > 0) {
-      h5->writeVector(p + "frame_time", frameTime);
-      h5->writeMatrix(p + "com", com);
-      h5->writeMatrix(p + "segments", seg);
-      h5->writeMatrix(p + "hips", hips);
-      h5->writeMatrix(p + "knees", knees);
-      h5->writeMatrix(p + "tips", tipsXyz);
+    h5->writeMatrix(p + "step_times", step_times_);
+    h5->writeVector(p + "step_total", step_total_);
+    h5->writeIntVector(p + "contacts", contacts_);
+    if (!mujoco_) h5->writeIntVector(p + "pgs_iterations", iterations_);
+    h5->writeVector(p + "q_final", sim_->q());
+    if (F_ > 0) {
+      h5->writeVector(p + "frame_time", frame_time_);
+      h5->writeMatrix(p + "com", com_);
+      h5->writeMatrix(p + "segments", seg_);
+      h5->writeMatrix(p + "hips", hips_);
+      h5->writeMatrix(p + "knees", knees_);
+      h5->writeMatrix(p + "tips", tips_);
     }
   }
   return r;
+}
+
+}  // namespace
+
+CentipedeRunResult runCentipede(const CentipedeRunOptions& o, std::ostream& log, H5Writer* h5,
+                                const std::string& group) {
+  CentipedeRun run(o, log);
+  run.steps(o.steps);
+  return run.finish(h5, group);
 }
 
 std::string sweepPointPath(const std::string& solver, int threads) {
@@ -321,8 +376,32 @@ void runCentipedeSweep(const CentipedeSweepOptions& o, std::ostream& log) {
   writeProvenance(h5, "/");
   h5.setAttribute("/", "steps", o.steps);
   h5.setAttribute("/", "dt", o.dt);
+  h5.setAttribute("/", "rounds", kRounds);  // the paths of a point take turns (see below)
   h5.flush();
-  for (int S : o.segments)
+  // A MuJoCo point it cannot load or run holds why; the sweep goes on.
+  auto skipped = [&](int S, const std::string& solver, const std::string& name, const char* why) {
+    CentipedeOptions co;
+    co.segments = S;
+    const Centipede c = makeCentipede(co);
+    h5.createGroup("S" + std::to_string(S));
+    const std::string g = h5.beginPoint(name);
+    h5.setAttribute(g, "segments", S);
+    h5.setAttribute(g, "legs", c.legs());
+    h5.setAttribute(g, "nv", c.model.nv());
+    h5.setAttribute(g, "steps", o.steps);
+    h5.setAttribute(g, "dt", o.dt);
+    h5.setAttribute(g, "solver", solver);
+    h5.setAttribute(g, "engine", "mujoco");
+    h5.setAttribute(g, "status", "skipped");
+    h5.setAttribute(g, "skipped", why);
+    h5.endPoint(name);
+    log << "# " << name << " skipped: " << why << "\n";
+    log.flush();
+  };
+  for (int S : o.segments) {
+    // Every path of this S not done already, built (and warmed up) first.
+    std::vector<std::string> names, solvers;
+    std::vector<std::unique_ptr<CentipedeRun>> runs;
     for (const std::string& solver : o.solvers) {
       const std::string name = "S" + std::to_string(S) + "/" + sweepPointPath(solver, o.threads);
       if (h5.hasGroup(name)) {
@@ -336,43 +415,54 @@ void runCentipedeSweep(const CentipedeSweepOptions& o, std::ostream& log) {
       ro.solver = solver;
       ro.threads = o.threads;
       ro.progress_lines = 2;
-      h5.createGroup("S" + std::to_string(S));
-      const std::string g = h5.beginPoint(name);
-      CentipedeRunResult r;
       try {
-        r = runCentipede(ro, log, &h5, g);
+        runs.push_back(std::make_unique<CentipedeRun>(ro, log));
       } catch (const std::exception& e) {
         if (solver != kMujocoStepPath) throw;
-        // MuJoCo cannot load or run this size: the point says why, the sweep goes on.
-        CentipedeOptions co;
-        co.segments = S;
-        const Centipede c = makeCentipede(co);
-        h5.setAttribute(g, "segments", S);
-        h5.setAttribute(g, "legs", c.legs());
-        h5.setAttribute(g, "nv", c.model.nv());
-        h5.setAttribute(g, "steps", o.steps);
-        h5.setAttribute(g, "dt", o.dt);
-        h5.setAttribute(g, "solver", solver);
-        h5.setAttribute(g, "engine", "mujoco");
-        h5.setAttribute(g, "status", "skipped");
-        h5.setAttribute(g, "skipped", e.what());
-        h5.endPoint(name);
-        log << "# " << name << " skipped: " << e.what() << "\n";
-        log.flush();
+        skipped(S, solver, name, e.what());
         continue;
       }
+      names.push_back(name), solvers.push_back(solver);
+    }
+    // The paths take turns, kRounds rounds of steps/kRounds steps (at least one), so that a
+    // change in the machine's speed during the sweep (a shared machine's neighbours, its clock)
+    // falls on every path of the point alike and their ratios stay comparable.
+    const int block = std::max(1, (o.steps + kRounds - 1) / kRounds);
+    for (bool left = !runs.empty(); left;) {
+      left = false;
+      for (std::size_t j = 0; j < runs.size(); ++j) {
+        if (!runs[j] || runs[j]->done()) continue;
+        try {
+          runs[j]->steps(block);
+        } catch (const std::exception& e) {
+          if (solvers[j] != kMujocoStepPath) throw;
+          skipped(S, solvers[j], names[j], e.what());
+          runs[j].reset();
+          continue;
+        }
+        left |= !runs[j]->done();
+      }
+    }
+    // Each finished path its point.
+    for (std::size_t j = 0; j < runs.size(); ++j) {
+      if (!runs[j]) continue;
+      h5.createGroup("S" + std::to_string(S));
+      const std::string g = h5.beginPoint(names[j]);
+      const CentipedeRunResult r = runs[j]->finish(&h5, g);
       h5.setAttribute(g, "status", "ok");
-      h5.endPoint(name);
+      h5.endPoint(names[j]);
+      runs[j].reset();
       char buf[320];
       std::snprintf(buf, sizeof buf,
                     "S=%-4d nv=%-5d %-13s total %8.3f s  dyn %7.3f  coll %6.3f  matrices %8.3f  "
                     "solve %7.3f  update %6.3f  (%.3f ms/step, %.1f contacts)\n",
-                    S, r.nv, sweepPointPath(solver, o.threads).c_str(), r.time_total,
+                    S, r.nv, sweepPointPath(solvers[j], o.threads).c_str(), r.time_total,
                     r.times.dynamics, r.times.collision, r.times.matrices, r.times.solve,
                     r.times.update, 1e3 * r.time_total / o.steps, r.mean_contacts);
       log << buf;
       log.flush();
     }
+  }
   log << "wrote " << o.out << "\n";
 }
 
