@@ -1,9 +1,10 @@
 // Hot simulator functions compiled for AVX-512 and AVX2 beside the portable build and chosen
 // at load time by the CPU (GCC target_clones; MINV_CLONES_FLAT also inlines the function's
 // whole call tree into each clone). The same source on every path, FMA contraction aside.
-// Sanitizer builds (MINV_NO_CLONES, set by MINV_SANITIZE) and other compilers keep the
-// portable build only: the instrumented clones of a flattened call tree took GCC over ten
-// minutes for one file.
+// Sanitizer builds and -march=native builds (MINV_NO_CLONES, set by MINV_SANITIZE and by
+// MINV_NATIVE) and other compilers compile each function once, for the build's own level: the
+// instrumented clones of a flattened call tree took GCC over ten minutes for one file, and a
+// native build's Eigen code (AVX-512 intrinsics) cannot be inlined into a lower level's clone.
 #pragma once
 
 #if defined(__GNUC__) && !defined(__clang__) && !defined(MINV_NO_CLONES)
