@@ -165,9 +165,44 @@ using MatKK = Eigen::Matrix<T, K, K, 0, MaxK<K>::value, MaxK<K>::value>;
 // contiguous direction of F's columns): the products with rows of F below, small (3 rows) or
 // long (a subtree's thousand), where Eigen's generic loops over dynamic-height blocks cost
 // more than the arithmetic. D: the inner size at compile time, or Eigen::Dynamic with dd.
+// NX rows known at compile time (a leg's 3 or 6 contact rows): the accumulators of a column of C
+// stay in registers across d, where the loop over x below would reload and store them.
+template <int D, bool Sub, int NX, class T>
+MINV_INLINE void rowProductFixed(const T* __restrict X, int lx, const T* __restrict Y, int sy,
+                                 int sd, int ny, T* __restrict C, int lc, int dd) {
+  const int n = D == Eigen::Dynamic ? dd : D;
+  for (int y = 0; y < ny; ++y) {
+    T* c = C + static_cast<std::ptrdiff_t>(lc) * y;
+    // acc = ±X(:, 0) Y(y, 0) (+ C(:, y) when subtracting)
+    T acc[NX];
+    const T y0 = Y[sy * y];
+    for (int x = 0; x < NX; ++x) acc[x] = Sub ? c[x] - X[x] * y0 : X[x] * y0;
+    // acc ±= X(:, d) Y(y, d) for the remaining d
+    for (int d = 1; d < n; ++d) {
+      const T yd = Y[sy * y + sd * d];
+      for (int x = 0; x < NX; ++x)
+        acc[x] = Sub ? acc[x] - X[x + static_cast<std::ptrdiff_t>(lx) * d] * yd
+                     : acc[x] + X[x + static_cast<std::ptrdiff_t>(lx) * d] * yd;
+    }
+    for (int x = 0; x < NX; ++x) c[x] = acc[x];
+  }
+}
+
 template <int D, bool Sub, class T>
 MINV_INLINE void rowProduct(const T* __restrict X, int lx, const T* __restrict Y, int sy, int sd,
                             int nx, int ny, T* __restrict C, int lc, int dd = D) {
+  // fewer than 8 rows: the fixed-size loops above (same operations in the same order)
+  switch (nx) {
+    case 0: return;
+    case 1: return rowProductFixed<D, Sub, 1>(X, lx, Y, sy, sd, ny, C, lc, dd);
+    case 2: return rowProductFixed<D, Sub, 2>(X, lx, Y, sy, sd, ny, C, lc, dd);
+    case 3: return rowProductFixed<D, Sub, 3>(X, lx, Y, sy, sd, ny, C, lc, dd);
+    case 4: return rowProductFixed<D, Sub, 4>(X, lx, Y, sy, sd, ny, C, lc, dd);
+    case 5: return rowProductFixed<D, Sub, 5>(X, lx, Y, sy, sd, ny, C, lc, dd);
+    case 6: return rowProductFixed<D, Sub, 6>(X, lx, Y, sy, sd, ny, C, lc, dd);
+    case 7: return rowProductFixed<D, Sub, 7>(X, lx, Y, sy, sd, ny, C, lc, dd);
+    default: break;
+  }
   const int n = D == Eigen::Dynamic ? dd : D;
   for (int y = 0; y < ny; ++y) {
     T yd[6];
