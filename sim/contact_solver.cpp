@@ -173,36 +173,33 @@ void contactSweep(const ContactProblem& p, const double* Wd, const double* Gd, c
                   int inner, ContactSolution& s, Eigen::VectorXd& u) {
   const int nc = static_cast<int>(p.b.size()), k = K == Eigen::Dynamic ? p.k : K, n3 = 3 * nc;
   constexpr int n = K == Eigen::Dynamic ? kMaxGenerators : K;
-  double gc[n], old[n];
+  double gc[n];
   double* uu = u.data();
   for (int c = 0; c < nc; ++c) {
     double* bc = s.beta.data() + k * c;
     const double* G = Gd + k * k * c;
     const double* rd = Rd + k * c;
     generatorVelocities(Wd, uu, p.b, c, k, gc);
-    for (int j = 0; j < k; ++j) old[j] = bc[j];
+    // Δλ_c = W Δβ_c, summed as the generators move (off the chain of dependent steps).
+    double d0 = 0, d1 = 0, d2 = 0;
     bool changed = false;
     for (int sweep = 0; sweep < inner; ++sweep) {
-      // Without data-dependent branches (a generator at its bound moves or not unpredictably):
-      // rd = 0 gives delta = 0, and adding 0·G leaves gc as it is.
+      // The step Δβ_j = max(−β_j, −g_j / G_jj) (β_j + Δβ_j ≥ 0), without data-dependent
+      // branches (a generator at its bound moves or not unpredictably): rd = 0 gives Δβ_j = 0,
+      // and adding 0·G leaves gc as it is.
       bool moved = false;
       for (int j = 0; j < k; ++j) {
-        const double nb = std::max(0.0, bc[j] - gc[j] * rd[j]);
-        const double delta = nb - bc[j];
-        bc[j] = nb;
+        const double delta = std::max(-bc[j], -(gc[j] * rd[j]));
+        bc[j] += delta;
         for (int i = 0; i < k; ++i) gc[i] += delta * G[k * j + i];
+        d0 += delta * Wd[3 * j], d1 += delta * Wd[3 * j + 1], d2 += delta * Wd[3 * j + 2];
         moved |= delta != 0;
       }
       changed |= moved;
       if (!moved) break;
     }
     if (!changed) continue;
-    // Δλ_c = W Δβ_c; u += A_{:,c} Δλ_c (three contiguous columns, one pass over u).
-    double d0 = 0, d1 = 0, d2 = 0;
-    for (int j = 0; j < k; ++j) {
-      const double db = bc[j] - old[j];
-      d0 += db * Wd[3 * j], d1 += db * Wd[3 * j + 1], d2 += db * Wd[3 * j + 2];
-    }
+    // u += A_{:,c} Δλ_c (three contiguous columns, one pass over u).
     s.lambda(3 * c) += d0, s.lambda(3 * c + 1) += d1, s.lambda(3 * c + 2) += d2;
     const double* a0 = p.A.data() + static_cast<std::ptrdiff_t>(3 * c) * n3;
     const double *a1 = a0 + n3, *a2 = a1 + n3;
@@ -291,6 +288,12 @@ MINV_CLONES_FLAT void solveInto(const ContactProblem& p, const ContactSolverOpti
   for (int c = 0; c < nc; ++c) generatorVelocities(Wd, p.v0.data(), p.b, c, k, g.data() + k * c);
   const double tol = o.tolerance * std::max(g.cwiseAbs().maxCoeff(), o.floor);
   r.converged = false;
+  // λ = Wβ and u = Aλ + v0 afresh, and the KKT residual on them (g left for the checks below).
+  auto fresh = [&] {
+    lambdaFromBeta(Wd, s.beta, k, s.lambda);
+    contactVelocities(p, s.lambda, w.u);
+    return kktResidual(p, Wd, s.beta, w.u, w.g);
+  };
   for (int it = 1; it <= o.max_iterations; ++it) {
     // One block Gauss-Seidel sweep (fixed-size for the usual k = 4).
     if (k == 4)
@@ -303,15 +306,17 @@ MINV_CLONES_FLAT void solveInto(const ContactProblem& p, const ContactSolverOpti
       contactVelocities(p, s.lambda, w.u);
     }
     r.iterations = it;
-    if (kktResidual(p, Wd, s.beta, w.u, w.g) <= tol) {
+    if (kktResidual(p, Wd, s.beta, w.u, w.g) > tol) continue;
+    // Below the tolerance on the incremental u: confirmed on λ and v⁺ = u afresh (rounding in
+    // the updates can leave the two a hair apart), the state the residuals describe.
+    r.kkt = fresh();
+    if (r.kkt <= tol) {
       r.converged = true;
       break;
     }
   }
-  // λ = Wβ and v⁺ = Aλ + v0 afresh; the KKT residual and complementarity on them.
-  lambdaFromBeta(Wd, s.beta, k, s.lambda);
-  contactVelocities(p, s.lambda, w.u);
-  r.kkt = kktResidual(p, Wd, s.beta, w.u, w.g);
+  if (!r.converged) r.kkt = fresh();
+  // Complementarity, penetration and cone on that λ and v⁺.
   for (int j = 0; j < m; ++j)
     r.complementarity = std::max(r.complementarity, std::abs(s.beta(j) * g(j)));
   residualsOnLambda(p, cn, w.u.data(), s);

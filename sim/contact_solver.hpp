@@ -36,7 +36,9 @@
 // bookkeeping differs), at 3/k of the update work and without the Θ((k·nc)²) setup; more
 // inner passes solve each contact's sub-problem further before moving on. The residual test,
 // the drift refresh every 64 sweeps (u = Aλ + v0 afresh) and the residuals reported are as
-// above; the final residuals use λ = Wβ and v⁺ = Aλ + v0 recomputed from β.
+// above; the final residuals use λ = Wβ and v⁺ = Aλ + v0 recomputed from β, and a sweep that
+// passes the test on the incremental u passes it again on those before the solve stops (else
+// the sweeps go on), so a converged solve reports a KKT residual within the tolerance.
 // solveMaxDissipationReference() is the former implementation (G formed, solveBoundQP),
 // kept as the oracle of tests/sim_contact_solver_test.cpp. The solve is one function compiled
 // per ISA level (sim/clones.hpp), its coordinate steps without data-dependent branches. Cost per
