@@ -193,15 +193,24 @@ MINV_INLINE void rowProduct(const T* __restrict X, int lx, const T* __restrict Y
                             int nx, int ny, T* __restrict C, int lc, int dd = D) {
   // fewer than 8 rows: the fixed-size loops above (same operations in the same order)
   switch (nx) {
-    case 0: return;
-    case 1: return rowProductFixed<D, Sub, 1>(X, lx, Y, sy, sd, ny, C, lc, dd);
-    case 2: return rowProductFixed<D, Sub, 2>(X, lx, Y, sy, sd, ny, C, lc, dd);
-    case 3: return rowProductFixed<D, Sub, 3>(X, lx, Y, sy, sd, ny, C, lc, dd);
-    case 4: return rowProductFixed<D, Sub, 4>(X, lx, Y, sy, sd, ny, C, lc, dd);
-    case 5: return rowProductFixed<D, Sub, 5>(X, lx, Y, sy, sd, ny, C, lc, dd);
-    case 6: return rowProductFixed<D, Sub, 6>(X, lx, Y, sy, sd, ny, C, lc, dd);
-    case 7: return rowProductFixed<D, Sub, 7>(X, lx, Y, sy, sd, ny, C, lc, dd);
-    default: break;
+    case 0:
+      return;
+    case 1:
+      return rowProductFixed<D, Sub, 1>(X, lx, Y, sy, sd, ny, C, lc, dd);
+    case 2:
+      return rowProductFixed<D, Sub, 2>(X, lx, Y, sy, sd, ny, C, lc, dd);
+    case 3:
+      return rowProductFixed<D, Sub, 3>(X, lx, Y, sy, sd, ny, C, lc, dd);
+    case 4:
+      return rowProductFixed<D, Sub, 4>(X, lx, Y, sy, sd, ny, C, lc, dd);
+    case 5:
+      return rowProductFixed<D, Sub, 5>(X, lx, Y, sy, sd, ny, C, lc, dd);
+    case 6:
+      return rowProductFixed<D, Sub, 6>(X, lx, Y, sy, sd, ny, C, lc, dd);
+    case 7:
+      return rowProductFixed<D, Sub, 7>(X, lx, Y, sy, sd, ny, C, lc, dd);
+    default:
+      break;
   }
   const int n = D == Eigen::Dynamic ? dd : D;
   for (int y = 0; y < ny; ++y) {
