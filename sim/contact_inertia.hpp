@@ -195,20 +195,8 @@ MINV_INLINE void rowProduct(const T* __restrict X, int lx, const T* __restrict Y
   switch (nx) {
     case 0:
       return;
-    case 1:
-      return rowProductFixed<D, Sub, 1>(X, lx, Y, sy, sd, ny, C, lc, dd);
-    case 2:
-      return rowProductFixed<D, Sub, 2>(X, lx, Y, sy, sd, ny, C, lc, dd);
     case 3:
       return rowProductFixed<D, Sub, 3>(X, lx, Y, sy, sd, ny, C, lc, dd);
-    case 4:
-      return rowProductFixed<D, Sub, 4>(X, lx, Y, sy, sd, ny, C, lc, dd);
-    case 5:
-      return rowProductFixed<D, Sub, 5>(X, lx, Y, sy, sd, ny, C, lc, dd);
-    case 6:
-      return rowProductFixed<D, Sub, 6>(X, lx, Y, sy, sd, ny, C, lc, dd);
-    case 7:
-      return rowProductFixed<D, Sub, 7>(X, lx, Y, sy, sd, ny, C, lc, dd);
     default:
       break;
   }
