@@ -288,29 +288,47 @@ inline void abiStoreFence() {
   if constexpr (std::is_same_v<T, double>) _mm_sfence();
 }
 
-// Where the forward sweep also stores Δq̇ as it goes (the stores then overlap the next body's
-// arithmetic): lane w of DOF v < end to x[w + v·ld], for the first `width` lanes (x = nullptr:
-// nowhere); with `stream`, whole blocks as full lines without reading them (abiStoreLine).
+// Where the forward sweep also stores Δq̇ as it goes (the stores then overlap the arithmetic of
+// the bodies that follow):
+// - rows: lane w of DOF v < end to x[w + v·ld], for the first `width` lanes (x = nullptr:
+//   nowhere); with `stream`, whole blocks as full lines without reading them (abiStoreLine);
+// - columns: once DOFs v0 … v0+7 < tiles are done, lane w's eight values to col[v0 + w·ld],
+//   one full line per lane through a small transposing buffer (col = nullptr: nowhere).
 template <class T>
 struct LaneRows {
   T* x = nullptr;
   std::size_t ld = 0;
   int end = 0, width = 0;
   bool stream = false;
+  T* col = nullptr;
+  int tiles = 0;
 
   template <class Lanes>
   void store(const Lanes& u, int v, int k) const {
-    if (!x) return;
     constexpr int W = Lanes::value_type::SizeAtCompileTime;
-    for (int j = 0; j < k && v + j < end; ++j) {
-      T* dst = x + (v + j) * ld;
-      if (width < W)
-        std::copy_n(u[v + j].data(), width, dst);
-      else if (W % 8 == 0 && stream)
-        for (int w = 0; w < W; w += 8) abiStoreLine(dst + w, u[v + j].data() + w);
-      else
-        for (int w = 0; w < W; ++w) dst[w] = u[v + j](w);
-    }
+    if (x)
+      for (int j = 0; j < k && v + j < end; ++j) {
+        T* dst = x + (v + j) * ld;
+        if (width < W)
+          std::copy_n(u[v + j].data(), width, dst);
+        else if (W % 8 == 0 && stream)
+          for (int w = 0; w < W; w += 8) abiStoreLine(dst + w, u[v + j].data() + w);
+        else
+          for (int w = 0; w < W; ++w) dst[w] = u[v + j](w);
+      }
+    if (col)
+      for (int j = 0; j < k; ++j)
+        if (((v + j + 1) & 7) == 0 && v + j < tiles) tile(u, v + j - 7);
+  }
+
+  // Rows v0 … v0+7 of the block's columns, lanes to columns.
+  template <class Lanes>
+  void tile(const Lanes& u, int v0) const {
+    constexpr int W = Lanes::value_type::SizeAtCompileTime;
+    T t[W][8];
+    for (int v = 0; v < 8; ++v)
+      for (int w = 0; w < W; ++w) t[w][v] = u[v0 + v](w);
+    for (int w = 0; w < width; ++w) abiStoreLine(col + v0 + w * ld, t[w]);
   }
 };
 
@@ -361,18 +379,14 @@ MINV_FLATTEN void abiInverseBlock(const Model& model, const Kinematics<T>& kin,
   T* x = X.data();
   abiBackward<T, W, true>(model, kin, art, ws, last, c0, width);
   mark("impulse propagation");
-  abiForward<T, W>(model, kin, art, ws, last,
-                   LaneRows<T>{upper ? nullptr : x + c0, ld, c0, width, stream});
+  // Columns c0 … above the diagonal tile, X(v, c0 + w), in 8-row tiles as the sweep goes.
+  const int tiles = c0 / 8 * 8;
+  abiForward<T, W>(
+      model, kin, art, ws, last,
+      LaneRows<T>{upper ? nullptr : x + c0, ld, c0, width, stream, x + c0 * ld, tiles});
   mark("velocity updates");
-  // Columns c0 … above the diagonal tile: X(v, c0 + w), 8-row tiles through a buffer (lanes
-  // to columns) streamed out a line at a time, then the rows of a last partial tile.
-  int v0 = 0;
-  for (; v0 + 8 <= c0; v0 += 8) {
-    T t[W][8];
-    for (int v = 0; v < 8; ++v)
-      for (int w = 0; w < W; ++w) t[w][v] = ws.u[v0 + v](w);
-    for (int w = 0; w < width; ++w) abiStoreLine(x + v0 + (c0 + w) * ld, t[w]);
-  }
+  // The rows of a last partial tile above the diagonal.
+  const int v0 = tiles;
   for (int w = 0; w < width; ++w)
     for (int v = v0; v < c0; ++v) x[v + (c0 + w) * ld] = ws.u[v](w);
   // The diagonal tile: its upper triangle, mirrored so that X is exactly symmetric.
