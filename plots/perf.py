@@ -166,9 +166,9 @@ def parts_section(f):
     lines = ["", "## Where abi's time goes (serial chain, one thread, medians in µs)", "",
              "Each part timed on its own: `configure` (kinematics and articulated inertias), "
              "the impulse `sweeps` of all column blocks without writing, and the `writes` "
-             "(each block storing, as its forward sweep goes, its columns above the diagonal and, "
-             "by symmetry, its rows left of it: the blocks timed whole, less the sweeps). A target that is missed "
-             "is missed for the reason this table shows.", "",
+             "(each block storing, as its forward sweep goes, its columns above the diagonal "
+             "and, by symmetry, its rows left of it: the blocks timed whole, less the sweeps). "
+             "A target that is missed is missed for the reason this table shows.", "",
              "| n | " + " | ".join(h for _, h in PARTS) + " | inverse / store |",
              "|---" * (len(PARTS) + 2) + "|"]
     for i, nv in enumerate(n):

@@ -386,9 +386,8 @@ MINV_FLATTEN void abiInverseBlock(const Model& model, const Kinematics<T>& kin,
       LaneRows<T>{upper ? nullptr : x + c0, ld, c0, width, stream, x + c0 * ld, tiles});
   mark("velocity updates");
   // The rows of a last partial tile above the diagonal.
-  const int v0 = tiles;
   for (int w = 0; w < width; ++w)
-    for (int v = v0; v < c0; ++v) x[v + (c0 + w) * ld] = ws.u[v](w);
+    for (int v = tiles; v < c0; ++v) x[v + (c0 + w) * ld] = ws.u[v](w);
   // The diagonal tile: its upper triangle, mirrored so that X is exactly symmetric.
   for (int w = 0; w < width; ++w)
     for (int v = c0; v <= c0 + w; ++v) {
