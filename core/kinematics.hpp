@@ -239,47 +239,17 @@ MINV_INLINE void composePose(const T* Rp, const T* pp, const T* L, const T* l, T
 }
 
 // Stages "spatial axes" (poses ⁰X_i and world-frame motion subspaces S_i) and "isolated
-// inertias" (I_i), one mark each per body. On one thread each body is done whole, parents
-// first, its parent's pose still in registers along a chain. With threads > 1 (and no marks)
-// the per-body steps are shared among OpenMP threads and only the composition along the tree
-// runs in order.
+// inertias" (I_i), one mark each per body. Each body is done whole, parents first, its parent's
+// pose still in registers along a chain. On one thread: splitting the per-body steps among
+// OpenMP threads (the composition along the tree in order) made abi's configure 2.2-2.5×
+// slower on two threads of a 2-vCPU Zen 5 guest at n = 512 … 2048 (poses crossing between
+// the cores, three barriers), and the simulator's kinematics never gained by it either.
 template <class T, class Mark>
-void computeKinematics(const Model& model, const VecX<T>& q, Kinematics<T>& kin, Mark&& mark,
-                       int threads = 1) {
+void computeKinematics(const Model& model, const VecX<T>& q, Kinematics<T>& kin, Mark&& mark) {
   const int nb = model.nb();
   const bool each_root = kin.origin == Origin::EachRoot;
   // sin and cos of the joint angles, all at once
   jointSinCos(q, kin);
-  if (threads > 1 && std::is_same_v<std::decay_t<Mark>, NoMark>) {
-#pragma omp parallel num_threads(threads)
-    {
-      // each joint's pose in its parent's frame
-#pragma omp for schedule(static)
-      for (int i = 0; i < nb; ++i)
-        localPose(model, q, kin, i, kin.X[i].R.data(), kin.X[i].p.data());
-        // the world poses, parents first
-#pragma omp single
-      for (int i = 0; i < nb; ++i) {
-        Pose<T>& X = kin.X[i];
-        if (model.parent(i) < 0) {
-          if (each_root) X.p.setZero();
-          continue;
-        }
-        const Pose<T>& P = kin.X[model.parent(i)];
-        T R[9], p[3];
-        composePose(P.R.data(), P.p.data(), X.R.data(), X.p.data(), R, p);
-        X.R = Eigen::Map<const Mat3<T>>(R);
-        X.p = Eigen::Map<const Vec3<T>>(p);
-      }
-      // S_i and I_i
-#pragma omp for schedule(static)
-      for (int i = 0; i < nb; ++i) {
-        motionSubspace(model, kin.X[i].R.data(), kin.X[i].p.data(), kin, i);
-        worldInertia(model, kin.X[i].R.data(), kin.X[i].p.data(), kin, i);
-      }
-    }
-    return;
-  }
   T R[9] = {}, p[3] = {};  // ⁰X of the body just done
   for (int i = 0; i < nb; ++i) {
     const int parent = model.parent(i);
@@ -307,10 +277,10 @@ void computeKinematics(const Model& model, const VecX<T>& q, Kinematics<T>& kin,
   }
 }
 
-// Both stages without marks, on `threads` OpenMP threads.
+// Both stages without marks.
 template <class T>
-void computeKinematics(const Model& model, const VecX<T>& q, Kinematics<T>& kin, int threads = 1) {
-  computeKinematics(model, q, kin, NoMark{}, threads);
+void computeKinematics(const Model& model, const VecX<T>& q, Kinematics<T>& kin) {
+  computeKinematics(model, q, kin, NoMark{});
 }
 
 }  // namespace minv

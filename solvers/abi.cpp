@@ -8,35 +8,56 @@ namespace minv {
 
 void AbiSolver::setThreads(int n) {
   threads_ = std::max(1, n);
-  if (model_) {
-    ws_ = std::make_unique<AbiWorkspace<double>>(*model_, threads_);
-    ws_->stream_rows = streamStridedRows();
-  }
+  if (model_) allocate();
 }
 
 void AbiSolver::prepare(const Model& model) {
   model_ = &model;
-  kin_ = std::make_unique<Kinematics<double>>(model, Origin::EachRoot);
-  art_ = std::make_unique<Articulated<double>>(model);
-  ws_ = std::make_unique<AbiWorkspace<double>>(model, threads_);
+  allocate();
+}
+
+// A configuration and a workspace per thread.
+void AbiSolver::allocate() {
+  kin_.clear(), art_.clear();
+  kin_.reserve(threads_), art_.reserve(threads_);
+  for (int t = 0; t < threads_; ++t)
+    kin_.emplace_back(*model_, Origin::EachRoot), art_.emplace_back(*model_);
+  ws_ = std::make_unique<AbiWorkspace<double>>(*model_, threads_);
   ws_->stream_rows = streamStridedRows();
 }
 
 void AbiSolver::configure(const Eigen::VectorXd& q) {
-  computeKinematics<double>(*model_, q, *kin_, threads_);
-  articulatedInertias<double>(*model_, *kin_, *art_);
+  if (threads_ == 1) {
+    computeKinematics<double>(*model_, q, kin_[0]);
+    articulatedInertias<double>(*model_, kin_[0], art_[0]);
+    return;
+  }
+  // Every thread its own copy, all at once (the same code, so the same bits); copies for
+  // threads the runtime did not start are made after.
+  int team = 1;
+#pragma omp parallel num_threads(threads_)
+  {
+    const int t = omp_get_thread_num();
+    if (t == 0) team = omp_get_num_threads();
+    computeKinematics<double>(*model_, q, kin_[t]);
+    articulatedInertias<double>(*model_, kin_[t], art_[t]);
+  }
+  for (int t = team; t < threads_; ++t) {
+    computeKinematics<double>(*model_, q, kin_[t]);
+    articulatedInertias<double>(*model_, kin_[t], art_[t]);
+  }
 }
 
 void AbiSolver::inverse(MatrixOut Minv) {
-  abiInverse<double>(*model_, *kin_, *art_, *ws_, Minv);
+  abiInverse<double>(*model_, configurations(), *ws_, Minv);
 }
 
 void AbiSolver::inverseUpper(MatrixOut Minv) {
-  abiInverse<double>(*model_, *kin_, *art_, *ws_, Minv, NoMark{}, true);
+  abiInverse<double>(*model_, configurations(), *ws_, Minv, NoMark{}, true);
 }
 
 void AbiSolver::solve(MatrixIn R, MatrixOut X) {
-  abiSolve<double>(*model_, *kin_, *art_, *ws_, R, X);
+  abiSolve<double>(*model_, configurations(), *ws_, R, X);
 }
 
 void AbiSolver::sweepsOnly() {
@@ -45,8 +66,8 @@ void AbiSolver::sweepsOnly() {
   FlushSubnormals flush;
   for (int c0 = 0; c0 + W <= m.nv(); c0 += W) {
     const int last = m.dofBody(c0 + W - 1);
-    abiBackward<double, W, true>(m, *kin_, *art_, ws_->wide[0], last, c0, W);
-    abiForward<double, W>(m, *kin_, *art_, ws_->wide[0], last);
+    abiBackward<double, W, true>(m, kin_[0], art_[0], ws_->wide[0], last, c0, W);
+    abiForward<double, W>(m, kin_[0], art_[0], ws_->wide[0], last);
   }
 }
 

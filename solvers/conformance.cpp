@@ -163,6 +163,14 @@ void checkCase(const SolverFactory& make, const ConformanceCase& c, ConformanceR
               Eigen::MatrixXd(p.Xref.triangularView<Eigen::Upper>())),
           2 * p.tol);
       add("2 threads: |M solve(R) - R|", rel(p.M * Yt, p.R), p.tol);
+      // A second configuration on the same solver (abi keeps a copy per thread: every copy
+      // must move to it).
+      if (options.reconfigure) {
+        Eigen::MatrixXd X2t(n, n);
+        t->configure(p.q2);
+        t->inverse(X2t);
+        add("2 threads: reconfigure |M2 X2 - I|", rel(p.M2 * X2t, I), p.tol2);
+      }
     }
   } catch (const std::exception& e) {
     report.errors.emplace_back(c.name, e.what());
