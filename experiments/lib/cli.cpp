@@ -624,7 +624,7 @@ int runCli(int argc, char** argv, const std::string& program) {
   scen->add_option("--segment-joint", sm.run.segment_joint, "yaw | spherical")
       ->capture_default_str();
   scen->add_option("--threads", sm.run.threads,
-                   "OpenMP threads of the contact-space matrices and kinematics (mujoco-step: 1)")
+                   "OpenMP threads of the contact-space matrices (mujoco-step: 1)")
       ->capture_default_str();
   scen->add_option("--frames", sm.run.frames, "Trajectory frames to save")->capture_default_str();
   scen->add_option("--out", sm.out, "Output HDF5 file (optional)");
