@@ -16,33 +16,35 @@ void AbiSolver::prepare(const Model& model) {
   allocate();
 }
 
-// A configuration and a workspace per thread.
+// A configuration and a workspace per thread used: threads_, or one below kParallelColumns.
 void AbiSolver::allocate() {
+  const int team = model_->nv() >= kParallelColumns ? threads_ : 1;
   kin_.clear(), art_.clear();
-  kin_.reserve(threads_), art_.reserve(threads_);
-  for (int t = 0; t < threads_; ++t)
+  kin_.reserve(team), art_.reserve(team);
+  for (int t = 0; t < team; ++t)
     kin_.emplace_back(*model_, Origin::EachRoot), art_.emplace_back(*model_);
-  ws_ = std::make_unique<AbiWorkspace<double>>(*model_, threads_);
+  ws_ = std::make_unique<AbiWorkspace<double>>(*model_, team);
   ws_->stream_rows = streamStridedRows();
 }
 
 void AbiSolver::configure(const Eigen::VectorXd& q) {
-  if (threads_ == 1) {
+  const int team = static_cast<int>(kin_.size());
+  if (team == 1) {
     computeKinematics<double>(*model_, q, kin_[0]);
     articulatedInertias<double>(*model_, kin_[0], art_[0]);
     return;
   }
   // Every thread its own copy, all at once (the same code, so the same bits); copies for
   // threads the runtime did not start are made after.
-  int team = 1;
-#pragma omp parallel num_threads(threads_)
+  int started = 1;
+#pragma omp parallel num_threads(team)
   {
     const int t = omp_get_thread_num();
-    if (t == 0) team = omp_get_num_threads();
+    if (t == 0) started = omp_get_num_threads();
     computeKinematics<double>(*model_, q, kin_[t]);
     articulatedInertias<double>(*model_, kin_[t], art_[t]);
   }
-  for (int t = team; t < threads_; ++t) {
+  for (int t = started; t < team; ++t) {
     computeKinematics<double>(*model_, q, kin_[t]);
     articulatedInertias<double>(*model_, kin_[t], art_[t]);
   }

@@ -561,6 +561,10 @@ class AbiSolver final : public Solver {
   // configure were lines the other cores had read in the last inverse, and on a 2-vCPU Zen 5
   // guest each such write cost ~15 ns (5× a private one): configure ran 2-4× slower on two
   // threads than on one, kinematics 10.9 -> 42.9 us at n = 512.
+  // Below this many DOFs abi runs on one thread whatever setThreads says: on the 2-vCPU Zen 5
+  // guest two threads were slower up to n = 128 (0.45× at 64, 0.71× at 128; 1.20× at 256),
+  // the forks and the copies' configure costing more than the columns they share.
+  static constexpr int kParallelColumns = 192;
   std::vector<Kinematics<double>> kin_;
   std::vector<Articulated<double>> art_;
   std::unique_ptr<AbiWorkspace<double>> ws_;
