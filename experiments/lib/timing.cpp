@@ -4,10 +4,12 @@
 
 #include <Eigen/Core>
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <memory>
 #include <stdexcept>
+#include <thread>
 
 #include "experiments/lib/h5writer.hpp"
 #include "experiments/lib/provenance.hpp"
@@ -208,6 +210,11 @@ SweepStats runTimingSweep(const TimingSweep& sweep, Shard shard, const std::stri
     const Measurement meas = measure(p.name(), body, sweep);
     solver.reset();
     setBaselineThreads();
+    // After a point on several threads, a pause: OpenBLAS's idle workers spin for about 0.1 s
+    // after their last call, and on a 2-core machine they took the core that the next point's
+    // second OpenMP thread needed (abi's two-thread point at n = 256 right after lapack's
+    // four-thread point at 128: 192 us against 71 us on one thread).
+    if (p.threads > 1) std::this_thread::sleep_for(std::chrono::milliseconds(250));
     if (meas.real_s.empty()) throw std::runtime_error(p.name() + ": no repetitions measured");
 
     const std::string g = h5.beginPoint(name);
