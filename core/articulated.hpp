@@ -43,66 +43,6 @@ struct Articulated {
   }
 };
 
-// A 6-vector (a column of a spatial matrix) for the one-DOF step below: on doubles one SIMD
-// value of 8 lanes, the last two zero (GCC/Clang vector extensions: one register on AVX-512,
-// split by the compiler on narrower ISAs), six scalars otherwise, so that the counting scalar
-// counts exactly six operations per entry-wise operation.
-template <class T>
-struct Six {
-  T v[6];
-  static Six load(const T* p) {
-    Six a;
-    for (int r = 0; r < 6; ++r) a.v[r] = p[r];
-    return a;
-  }
-  void store(T* p) const {
-    for (int r = 0; r < 6; ++r) p[r] = v[r];
-  }
-  T operator[](int r) const { return v[r]; }
-  friend Six operator+(const Six& a, const Six& b) {
-    Six c;
-    for (int r = 0; r < 6; ++r) c.v[r] = a.v[r] + b.v[r];
-    return c;
-  }
-  friend Six operator-(const Six& a, const Six& b) {
-    Six c;
-    for (int r = 0; r < 6; ++r) c.v[r] = a.v[r] - b.v[r];
-    return c;
-  }
-  friend Six operator*(const Six& a, const T& s) {
-    Six c;
-    for (int r = 0; r < 6; ++r) c.v[r] = a.v[r] * s;
-    return c;
-  }
-  // aᵀb, in pairs (a short dependency chain).
-  friend T dot(const Six& a, const Six& b) {
-    return (a.v[0] * b.v[0] + a.v[1] * b.v[1]) + (a.v[2] * b.v[2] + a.v[3] * b.v[3]) +
-           (a.v[4] * b.v[4] + a.v[5] * b.v[5]);
-  }
-};
-
-#if defined(__GNUC__)
-template <>
-struct Six<double> {
-  typedef double V __attribute__((vector_size(64)));
-  V v;
-  static MINV_INLINE Six load(const double* p) {
-    return {V{p[0], p[1], p[2], p[3], p[4], p[5], 0.0, 0.0}};
-  }
-  MINV_INLINE void store(double* p) const {
-    for (int r = 0; r < 6; ++r) p[r] = v[r];
-  }
-  MINV_INLINE double operator[](int r) const { return v[r]; }
-  friend MINV_INLINE Six operator+(const Six& a, const Six& b) { return {a.v + b.v}; }
-  friend MINV_INLINE Six operator-(const Six& a, const Six& b) { return {a.v - b.v}; }
-  friend MINV_INLINE Six operator*(const Six& a, double s) { return {a.v * s}; }
-  friend MINV_INLINE double dot(const Six& a, const Six& b) {
-    const V p = a.v * b.v;
-    return (p[0] + p[1]) + (p[2] + p[3]) + (p[4] + p[5]);
-  }
-};
-#endif
-
 // Per-joint steps are compiled per joint size, so that their products are fixed-size: calls
 // step(std::integral_constant<int, K>) with K = 1 (revolute, prismatic), 3 (spherical),
 // 6 (floating), Eigen::Dynamic for any other k.
