@@ -25,29 +25,30 @@ void AbiSolver::allocate() {
     kin_.emplace_back(*model_, Origin::EachRoot), art_.emplace_back(*model_);
   ws_ = std::make_unique<AbiWorkspace<double>>(*model_, team);
   ws_->stream_rows = streamStridedRows();
+  q_ = model_->neutral();
+  configured_ = 0;
+  made_.assign(team, -1);
 }
 
+// One copy: computed here. Several: q is kept, and each thread makes its own copy in the next
+// inverse or solve (makeCopy), in the same parallel region as its columns.
 void AbiSolver::configure(const Eigen::VectorXd& q) {
-  const int team = static_cast<int>(kin_.size());
-  if (team == 1) {
+  if (kin_.size() == 1) {
     computeKinematics<double>(*model_, q, kin_[0]);
     articulatedInertias<double>(*model_, kin_[0], art_[0]);
     return;
   }
-  // Every thread its own copy, all at once (the same code, so the same bits); copies for
-  // threads the runtime did not start are made after.
-  int started = 1;
-#pragma omp parallel num_threads(team)
-  {
-    const int t = omp_get_thread_num();
-    if (t == 0) started = omp_get_num_threads();
-    computeKinematics<double>(*model_, q, kin_[t]);
-    articulatedInertias<double>(*model_, kin_[t], art_[t]);
-  }
-  for (int t = started; t < team; ++t) {
-    computeKinematics<double>(*model_, q, kin_[t]);
-    articulatedInertias<double>(*model_, kin_[t], art_[t]);
-  }
+  q_ = q;
+  ++configured_;
+}
+
+// Copy t at the last configuration, if it is not already (the same code as one copy, so the
+// same bits).
+void AbiSolver::makeCopy(int t) {
+  if (made_[t] == configured_) return;
+  computeKinematics<double>(*model_, q_, kin_[t]);
+  articulatedInertias<double>(*model_, kin_[t], art_[t]);
+  made_[t] = configured_;
 }
 
 void AbiSolver::inverse(MatrixOut Minv) {
@@ -65,6 +66,7 @@ void AbiSolver::solve(MatrixIn R, MatrixOut X) {
 void AbiSolver::sweepsOnly() {
   constexpr int W = kAbiLanes<double>;
   const Model& m = *model_;
+  if (kin_.size() > 1) makeCopy(0);
   FlushSubnormals flush;
   for (int c0 = 0; c0 + W <= m.nv(); c0 += W) {
     const int last = m.dofBody(c0 + W - 1);

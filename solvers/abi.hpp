@@ -398,14 +398,21 @@ MINV_FLATTEN void abiInverseBlock(const Model& model, const Kinematics<T>& kin,
 }
 
 // What the sweeps read of a configuration (S, U D⁻¹, D⁻¹), per thread: thread t reads copy t,
-// or the last copy where there are fewer (one copy: every thread reads the same).
+// or the last copy where there are fewer (one copy: every thread reads the same). With
+// `make`, each thread first brings its own copy up to date, make(context, t), inside the same
+// parallel region as its columns (AbiSolver: one fork and one join per configure + inverse).
 template <class T>
 struct AbiConfigurations {
   const Kinematics<T>* kins;
   const Articulated<T>* arts;
   int copies = 1;
+  void (*make)(void* context, int thread) = nullptr;
+  void* context = nullptr;
   const Kinematics<T>& kin(int thread) const { return kins[std::min(thread, copies - 1)]; }
   const Articulated<T>& art(int thread) const { return arts[std::min(thread, copies - 1)]; }
+  void ready(int thread) const {
+    if (make) make(context, std::min(thread, copies - 1));
+  }
 };
 
 // Stages "impulse propagation" and "velocity updates" for all columns: Minv = M⁻¹, in blocks
@@ -430,6 +437,7 @@ void abiInverse(const Model& model, AbiConfigurations<T> config, AbiWorkspace<T>
   // Subnormals flushed to zero on every thread (core/fpenv.hpp): far entries of a long chain
   // underflow, and on Intel cores each operation on them takes a microcode assist.
   if (ws.threads() == 1 || !std::is_same_v<std::decay_t<Mark>, NoMark>) {
+    config.ready(0);
     FlushSubnormals flush;
     for (int b = 0; b < blocks; ++b) block(b, 0, mark);
     abiStoreFence<T>();
@@ -437,6 +445,8 @@ void abiInverse(const Model& model, AbiConfigurations<T> config, AbiWorkspace<T>
   }
 #pragma omp parallel num_threads(ws.threads())
   {
+    // This thread's configuration, then its blocks: it reads no other thread's copy.
+    config.ready(omp_thread());
     FlushSubnormals flush;
     NoMark none;
     // Blocks are independent and write disjoint parts of Minv; later ones cost more: the
@@ -495,12 +505,14 @@ void abiSolve(const Model& model, AbiConfigurations<T> config, AbiWorkspace<T>& 
   };
   // Subnormals flushed to zero on every thread, as in abiInverse.
   if (ws.threads() == 1 || blocks == 1 || !std::is_same_v<std::decay_t<Mark>, NoMark>) {
+    config.ready(0);
     FlushSubnormals flush;
     for (int b = 0; b < blocks; ++b) block(b, 0, mark);
     return;
   }
 #pragma omp parallel num_threads(ws.threads())
   {
+    config.ready(omp_thread());
     FlushSubnormals flush;
     NoMark none;
     // Every block sweeps the whole tree: equal costs, handed out in equal shares.
@@ -556,8 +568,9 @@ class AbiSolver final : public Solver {
  private:
   const Model* model_ = nullptr;
   int threads_ = 1;
-  // One configuration per thread, each computed by its own thread (configure()): a thread's
-  // sweeps then read only lines its own core wrote. Shared, the lines thread 0 rewrote in every
+  // One configuration per thread, each computed by its own thread at the start of the next
+  // inverse or solve (configure() keeps q; one parallel region does both): a thread's sweeps
+  // then read only lines its own core wrote. Shared, the lines thread 0 rewrote in every
   // configure were lines the other cores had read in the last inverse, and on a 2-vCPU Zen 5
   // guest each such write cost ~15 ns (5× a private one): configure ran 2-4× slower on two
   // threads than on one, kinematics 10.9 -> 42.9 us at n = 512.
@@ -568,9 +581,16 @@ class AbiSolver final : public Solver {
   std::vector<Kinematics<double>> kin_;
   std::vector<Articulated<double>> art_;
   std::unique_ptr<AbiWorkspace<double>> ws_;
+  // With several copies: the last configuration, its number, and the number each copy holds.
+  Eigen::VectorXd q_;
+  long configured_ = 0;
+  std::vector<long> made_;
   void allocate();
-  AbiConfigurations<double> configurations() const {
-    return {kin_.data(), art_.data(), static_cast<int>(kin_.size())};
+  void makeCopy(int t);
+  AbiConfigurations<double> configurations() {
+    if (kin_.size() == 1) return {kin_.data(), art_.data(), 1};
+    return {kin_.data(), art_.data(), static_cast<int>(kin_.size()),
+            [](void* self, int t) { static_cast<AbiSolver*>(self)->makeCopy(t); }, this};
   }
 };
 
