@@ -10,7 +10,6 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
-#include <type_traits>
 
 namespace minv {
 
@@ -21,85 +20,6 @@ namespace minv {
 #else
 #define MINV_INLINE inline
 #endif
-
-// A column of N = 3 or 6 entries (of a 3×3 rotation or a 6×6 spatial matrix) for the per-body
-// kernels: on doubles one SIMD value of 4 or 8 lanes, the rest zero (GCC/Clang vector
-// extensions; one register on AVX2 or AVX-512, split by the compiler on narrower ISAs), N
-// scalars otherwise, so that the counting scalar counts exactly N operations per entry-wise
-// operation: the same count as the scalar code it replaces.
-template <class T, int N>
-struct Col {
-  T v[N];
-  static MINV_INLINE Col load(const T* p) {
-    Col a;
-    for (int r = 0; r < N; ++r) a.v[r] = p[r];
-    return a;
-  }
-  MINV_INLINE void store(T* p) const {
-    for (int r = 0; r < N; ++r) p[r] = v[r];
-  }
-  MINV_INLINE T operator[](int r) const { return v[r]; }
-  friend MINV_INLINE Col operator+(const Col& a, const Col& b) {
-    Col c;
-    for (int r = 0; r < N; ++r) c.v[r] = a.v[r] + b.v[r];
-    return c;
-  }
-  friend MINV_INLINE Col operator-(const Col& a, const Col& b) {
-    Col c;
-    for (int r = 0; r < N; ++r) c.v[r] = a.v[r] - b.v[r];
-    return c;
-  }
-  friend MINV_INLINE Col operator*(const Col& a, const T& s) {
-    Col c;
-    for (int r = 0; r < N; ++r) c.v[r] = a.v[r] * s;
-    return c;
-  }
-};
-
-#if defined(__GNUC__)
-typedef double ColLanes4 __attribute__((vector_size(32)));
-typedef double ColLanes8 __attribute__((vector_size(64)));
-template <int N>
-struct Col<double, N> {
-  using V = std::conditional_t<N <= 4, ColLanes4, ColLanes8>;
-  V v;
-  static MINV_INLINE Col load(const double* p) {
-    static_assert(N == 3 || N == 6);
-    if constexpr (N == 3)
-      return {V{p[0], p[1], p[2], 0.0}};
-    else
-      return {V{p[0], p[1], p[2], p[3], p[4], p[5], 0.0, 0.0}};
-  }
-  MINV_INLINE void store(double* p) const {
-    for (int r = 0; r < N; ++r) p[r] = v[r];
-  }
-  MINV_INLINE double operator[](int r) const { return v[r]; }
-  friend MINV_INLINE Col operator+(const Col& a, const Col& b) { return {a.v + b.v}; }
-  friend MINV_INLINE Col operator-(const Col& a, const Col& b) { return {a.v - b.v}; }
-  friend MINV_INLINE Col operator*(const Col& a, double s) { return {a.v * s}; }
-  // dot() below, the products as one vector
-  friend MINV_INLINE double dot(const Col& a, const Col& b) {
-    const V p = a.v * b.v;
-    if constexpr (N == 3)
-      return (p[0] + p[1]) + p[2];
-    else
-      return (p[0] + p[1]) + (p[2] + p[3]) + (p[4] + p[5]);
-  }
-};
-#endif
-
-// aᵀb of two columns, in pairs (a short dependency chain): N mul, N − 1 add.
-template <class T, int N>
-MINV_INLINE T dot(const Col<T, N>& a, const Col<T, N>& b) {
-  static_assert(N == 3 || N == 6);
-  if constexpr (N == 3)
-    return (a[0] * b[0] + a[1] * b[1]) + a[2] * b[2];
-  else
-    return (a[0] * b[0] + a[1] * b[1]) + (a[2] * b[2] + a[3] * b[3]) + (a[4] * b[4] + a[5] * b[5]);
-}
-
-template <class T>
-using Six = Col<T, 6>;
 
 template <class T>
 using Vec3 = Eigen::Matrix<T, 3, 1>;
