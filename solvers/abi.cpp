@@ -6,6 +6,7 @@
 
 namespace minv {
 
+// The copies are made anew for the new team, from the last configuration if there was one.
 void AbiSolver::setThreads(int n) {
   threads_ = std::max(1, n);
   if (model_) allocate();
@@ -13,10 +14,13 @@ void AbiSolver::setThreads(int n) {
 
 void AbiSolver::prepare(const Model& model) {
   model_ = &model;
+  q_ = model.neutral();
+  configured_ = 0;
   allocate();
 }
 
 // A configuration and a workspace per thread used: threads_, or one below kParallelColumns.
+// One copy is brought to the last configuration here, several by their threads (makeCopy).
 void AbiSolver::allocate() {
   const int team = model_->nv() >= kParallelColumns ? threads_ : 1;
   kin_.clear(), art_.clear();
@@ -25,25 +29,20 @@ void AbiSolver::allocate() {
     kin_.emplace_back(*model_, Origin::EachRoot), art_.emplace_back(*model_);
   ws_ = std::make_unique<AbiWorkspace<double>>(*model_, team);
   ws_->stream_rows = streamStridedRows();
-  q_ = model_->neutral();
-  configured_ = 0;
   made_.assign(team, -1);
+  if (team == 1 && configured_ > 0) makeCopy(0);
 }
 
-// One copy: computed here. Several: q is kept, and each thread makes its own copy in the next
+// q is kept. One copy: computed here. Several: each thread makes its own copy in the next
 // inverse or solve (makeCopy), in the same parallel region as its columns.
 void AbiSolver::configure(const Eigen::VectorXd& q) {
-  if (kin_.size() == 1) {
-    computeKinematics<double>(*model_, q, kin_[0]);
-    articulatedInertias<double>(*model_, kin_[0], art_[0]);
-    return;
-  }
   q_ = q;
   ++configured_;
+  if (kin_.size() == 1) makeCopy(0);
 }
 
-// Copy t at the last configuration, if it is not already (the same code as one copy, so the
-// same bits).
+// Copy t at the last configuration, if it is not already (the same code for every copy, so
+// the same bits).
 void AbiSolver::makeCopy(int t) {
   if (made_[t] == configured_) return;
   computeKinematics<double>(*model_, q_, kin_[t]);
@@ -66,7 +65,7 @@ void AbiSolver::solve(MatrixIn R, MatrixOut X) {
 void AbiSolver::sweepsOnly() {
   constexpr int W = kAbiLanes<double>;
   const Model& m = *model_;
-  if (kin_.size() > 1) makeCopy(0);
+  makeCopy(0);
   FlushSubnormals flush;
   for (int c0 = 0; c0 + W <= m.nv(); c0 += W) {
     const int last = m.dofBody(c0 + W - 1);

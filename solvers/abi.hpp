@@ -581,7 +581,7 @@ class AbiSolver final : public Solver {
   std::vector<Kinematics<double>> kin_;
   std::vector<Articulated<double>> art_;
   std::unique_ptr<AbiWorkspace<double>> ws_;
-  // With several copies: the last configuration, its number, and the number each copy holds.
+  // The last configuration, its number (0: none since prepare) and the number each copy holds.
   Eigen::VectorXd q_;
   long configured_ = 0;
   std::vector<long> made_;

@@ -171,6 +171,17 @@ void checkCase(const SolverFactory& make, const ConformanceCase& c, ConformanceR
         t->inverse(X2t);
         add("2 threads: reconfigure |M2 X2 - I|", rel(p.M2 * X2t, I), p.tol2);
       }
+      // Threads changed after configure: the configuration carries over (abi reallocates its
+      // per-thread copies).
+      const Eigen::MatrixXd& Mlast = options.reconfigure ? p.M2 : p.M;
+      const double tolLast = options.reconfigure ? p.tol2 : p.tol;
+      Eigen::MatrixXd Xs(n, n);
+      t->setThreads(1);
+      t->inverse(Xs);
+      add("setThreads(1) after configure |MX - I|", rel(Mlast * Xs, I), tolLast);
+      t->setThreads(2);
+      t->inverse(Xs);
+      add("setThreads(2) after configure |MX - I|", rel(Mlast * Xs, I), tolLast);
     }
   } catch (const std::exception& e) {
     report.errors.emplace_back(c.name, e.what());

@@ -23,7 +23,8 @@
 //   reconfigure    configure(q₂) after q gives M(q₂)⁻¹ (a solver must not return a cached
 //                  result from an earlier configuration)                ‖M₂X₂ − I‖ ≤ tol₂
 //   two threads    with setThreads(2): inverse and ‖M solve(R) − R‖/‖R‖ ≤ tol, symmetric, and
-//                  inverseUpper into a block of a larger matrix (a strided output) ≤ 2·tol
+//                  inverseUpper into a block of a larger matrix (a strided output) ≤ 2·tol;
+//                  then setThreads(1) and (2) after configure keep the configuration
 // A backward-stable inverse has ‖M X − I‖ ≲ c·n·κ·ε; the bound allows c = 10 with a margin of
 // 10 in n (so n = 1 still has room for rounding). A solver that does not support a tree
 // (Solver::supports) is skipped on it, with its reason in the report.
