@@ -22,7 +22,8 @@
 // (W = kAbiLanes<T>: 16 for double, 1 for the counting scalar), one lane per column, so every
 // update is a W-wide vector operation; along a chain Y and Δv pass from body to body without
 // a store; blocks run in OpenMP threads (setThreads), each thread reading its own copy of the
-// configuration (AbiSolver::configure). Multi-DOF joints make D a k×k block.
+// configuration, which it makes itself in the same parallel region (AbiSolver::configure: one
+// fork per configure + inverse). Multi-DOF joints make D a k×k block.
 // Cost: Σ_c (depth(b_c) + b_c) body steps ≈ n²/2 + Σ depth for M⁻¹ (Θ(n²)); Θ(m·nb) for M⁻¹R.
 // Scratch Θ(nb·W) per thread, allocated in the workspace; the sweeps do not allocate.
 // Numbers below DBL_MIN are flushed to zero while the sweeps run (core/fpenv.hpp): an absolute
