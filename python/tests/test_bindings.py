@@ -225,6 +225,19 @@ def test_threads_and_supports():
     assert np.linalg.norm(M @ X - np.eye(model.nv)) < 1e-8
 
 
+@pytest.mark.parametrize("n", [20, 250])
+def test_set_threads_keeps_the_configuration(n):
+    # abi remakes its per-thread copies of the configuration (two of them from 192 DOFs).
+    model, q, M = _problem("serial", n)
+    solver = minv.make_solver("abi")
+    solver.prepare(model)
+    solver.configure(q)
+    for threads in (2, 1, 2):
+        solver.set_threads(threads)
+        X = solver.inverse()
+        assert np.linalg.norm(M @ X - np.eye(model.nv)) < 1e-8 * np.linalg.cond(M)
+
+
 def test_solver_keeps_its_model_alive():
     solver = minv.make_solver("abi")
     solver.prepare(minv.random_tree("serial", 30, seed=4))
