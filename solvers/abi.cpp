@@ -6,10 +6,10 @@
 
 namespace minv {
 
-// The copies are made anew for the new team, from the last configuration if there was one.
+// A team of another size gets its copies anew, from the last configuration if there was one.
 void AbiSolver::setThreads(int n) {
   threads_ = std::max(1, n);
-  if (model_) allocate();
+  if (model_ && team() != static_cast<int>(kin_.size())) allocate();
 }
 
 void AbiSolver::prepare(const Model& model) {
@@ -22,7 +22,7 @@ void AbiSolver::prepare(const Model& model) {
 // A configuration and a workspace per thread used: threads_, or one below kParallelColumns.
 // One copy is brought to the last configuration here, several by their threads (makeCopy).
 void AbiSolver::allocate() {
-  const int team = model_->nv() >= kParallelColumns ? threads_ : 1;
+  const int team = this->team();
   kin_.clear(), art_.clear();
   kin_.reserve(team), art_.reserve(team);
   for (int t = 0; t < team; ++t)

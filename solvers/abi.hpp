@@ -569,16 +569,18 @@ class AbiSolver final : public Solver {
  private:
   const Model* model_ = nullptr;
   int threads_ = 1;
+  // Below this many DOFs abi runs on one thread whatever setThreads says: on the 2-vCPU Zen 5
+  // guest two threads were slower up to n = 128 (0.45× at 64, 0.71× at 128; 1.20× at 256),
+  // the forks and the copies' configure costing more than the columns they share.
+  static constexpr int kParallelColumns = 192;
+  // Threads used: threads_, or one below kParallelColumns.
+  int team() const { return model_->nv() >= kParallelColumns ? threads_ : 1; }
   // One configuration per thread, each computed by its own thread at the start of the next
   // inverse or solve (configure() keeps q; one parallel region does both): a thread's sweeps
   // then read only lines its own core wrote. Shared, the lines thread 0 rewrote in every
   // configure were lines the other cores had read in the last inverse, and on a 2-vCPU Zen 5
   // guest each such write cost ~15 ns (5× a private one): configure ran 2-4× slower on two
   // threads than on one, kinematics 10.9 -> 42.9 us at n = 512.
-  // Below this many DOFs abi runs on one thread whatever setThreads says: on the 2-vCPU Zen 5
-  // guest two threads were slower up to n = 128 (0.45× at 64, 0.71× at 128; 1.20× at 256),
-  // the forks and the copies' configure costing more than the columns they share.
-  static constexpr int kParallelColumns = 192;
   std::vector<Kinematics<double>> kin_;
   std::vector<Articulated<double>> art_;
   std::unique_ptr<AbiWorkspace<double>> ws_;
