@@ -21,14 +21,25 @@ struct Articulated {
   Mat6N<T> UDinv;             // U D⁻¹, column per DOF
   std::vector<MatK<T>> Dinv;  // D⁻¹ per body, k×k
   VecX<T> dinv;               // D⁻¹ of each one-DOF body at its DOF: dense, for the sweeps
+  // The bodies with a child other than the next body (a branch point), in order: their IA
+  // gathers those children's terms in memory (articulatedInertias).
+  std::vector<int> gathering;
+  std::vector<char> gathers;  // per body: is it in `gathering`
 
   explicit Articulated(const Model& m)
       : IA(m.nb()),
         U(Mat6N<T>::Zero(6, m.nv())),
         UDinv(Mat6N<T>::Zero(6, m.nv())),
         Dinv(m.nb()),
-        dinv(VecX<T>::Zero(m.nv())) {
-    for (int i = 0; i < m.nb(); ++i) Dinv[i] = MatK<T>::Zero(m.nvOf(i), m.nvOf(i));
+        dinv(VecX<T>::Zero(m.nv())),
+        gathers(m.nb(), 0) {
+    for (int i = 0; i < m.nb(); ++i) {
+      Dinv[i] = MatK<T>::Zero(m.nvOf(i), m.nvOf(i));
+      const int p = m.parent(i);
+      if (p >= 0 && p != i - 1) gathers[p] = 1;
+    }
+    for (int i = 0; i < m.nb(); ++i)
+      if (gathers[i]) gathering.push_back(i);
   }
 };
 
@@ -111,46 +122,82 @@ void spdInverse(const In& D, Out&& Dinv) {
     }
 }
 
-// One body of K DOFs at v (K > 1): U_i = IA_i S_i, D_i = S_iᵀ U_i, D_i⁻¹, U_i D_i⁻¹, and
-// IA_λ(i) += IA_i − U_i D_i⁻¹ U_iᵀ.
+// One body of k DOFs (K: k at compile time, or Eigen::Dynamic) at v, IA_i in columns:
+//   U_i = IA_i S_i,  D_i = S_iᵀ U_i,  D_i⁻¹,  U_i D_i⁻¹,
+// stored in art; and, for a body with a parent, its term Ia = IA_i − U_i D_i⁻¹ U_iᵀ. Each
+// column of U in two halves (a short dependency chain).
 template <class T, int K>
-void articulatedStep(std::integral_constant<int, K>, const Kinematics<T>& kin, Articulated<T>& art,
-                     int i, int p, int v, int k) {
-  const auto S = kin.S.template middleCols<K>(v, k);
-  auto U = art.U.template middleCols<K>(v, k);
-  auto UD = art.UDinv.template middleCols<K>(v, k);
+MINV_INLINE void articulatedStep(std::integral_constant<int, K>, const Kinematics<T>& kin,
+                                 Articulated<T>& art, const Six<T>* IA, int i, int v, int kk,
+                                 bool parent, Six<T>* Ia) {
+  using C = Six<T>;
+  constexpr int N = K == Eigen::Dynamic ? 6 : K;
+  const int k = K == Eigen::Dynamic ? kk : K;
+  C S[N] = {}, U[N] = {}, UD[N] = {};
+  for (int j = 0; j < k; ++j) {
+    const T* s = kin.S.col(v + j).data();
+    S[j] = C::load(s);
+    U[j] =
+        (IA[0] * s[0] + IA[2] * s[2] + IA[4] * s[4]) + (IA[1] * s[1] + IA[3] * s[3] + IA[5] * s[5]);
+    U[j].store(art.U.col(v + j).data());
+  }
+  // D = Sᵀ U and its inverse
+  MatJ<T, K> D;
+  if constexpr (K == Eigen::Dynamic) D.resize(k, k);
+  for (int c = 0; c < k; ++c)
+    for (int r = 0; r < k; ++r) D(r, c) = dot(S[r], U[c]);
   auto Dinv = art.Dinv[i].template topLeftCorner<K, K>(k, k);
-  U.noalias() = art.IA[i].lazyProduct(S);
-  const MatJ<T, K> D = S.transpose().lazyProduct(U);
   spdInverse<T, K>(D, Dinv);
-  UD.noalias() = U.lazyProduct(Dinv);
-  if (p >= 0) {
-    art.IA[p] += art.IA[i];
-    art.IA[p].noalias() -= UD.lazyProduct(U.transpose());
+  // U D⁻¹
+  for (int j = 0; j < k; ++j) {
+    UD[j] = U[0] * Dinv(0, j);
+    for (int l = 1; l < k; ++l) UD[j] = UD[j] + U[l] * Dinv(l, j);
+    UD[j].store(art.UDinv.col(v + j).data());
+  }
+  if constexpr (K == 1) art.dinv(v) = Dinv(0, 0);
+  if (!parent) return;
+  // Ia = IA − (U D⁻¹) Uᵀ
+  for (int c = 0; c < 6; ++c) {
+    C t = UD[0] * U[0][c];
+    for (int j = 1; j < k; ++j) t = t + UD[j] * U[j][c];
+    Ia[c] = IA[c] - t;
   }
 }
 
-// Stage "articulated inertias": IA, U, D⁻¹, U D⁻¹ for every body, leaves first.
+// Stage "articulated inertias": IA, U, D⁻¹, U D⁻¹ for every body, leaves first (RBDA Table 7.1,
+// pass 2: IA_λ(i) = I_λ(i) + Σ Ia_i over its children, Ia_i = IA_i − U_i D_i⁻¹ U_iᵀ). Along a
+// chain (the parent is the next body done) Ia_i goes on in registers (`carry`), not through
+// memory; a branch point's other children add theirs into its IA, which starts as I_λ. The same
+// operations in every case (Tables 1–3 count them).
 template <class T>
 void articulatedInertias(const Model& model, const Kinematics<T>& kin, Articulated<T>& art) {
-  for (int i = 0; i < model.nb(); ++i) art.IA[i] = kin.I[i];
+  // Branch points gather their other children's Ia in memory, from I_i.
+  for (const int i : art.gathering) art.IA[i] = kin.I[i];
+  using C = Six<T>;
+  C carry[6];            // Ia of the body just done (columns), when this body is its parent
+  bool carried = false;  // whether carry holds one
   for (int i = model.nb() - 1; i >= 0; --i) {
     const int v = model.vIdx(i), k = model.nvOf(i), p = model.parent(i);
-    if (k == 1) {
-      // One DOF: the same steps on fixed-size vectors, d a scalar.
-      const Vec6<T> U = art.IA[i] * kin.S.col(v);
-      const T dinv = T(1) / kin.S.col(v).dot(U);
-      art.U.col(v) = U;
-      art.Dinv[i](0, 0) = art.dinv(v) = dinv;
-      art.UDinv.col(v) = U * dinv;
-      if (p >= 0) {
-        art.IA[p] += art.IA[i];
-        art.IA[p].noalias() -= art.UDinv.col(v) * U.transpose();
-      }
-      continue;
+    // IA_i = I_i (with a branch point's gathered terms) + the chain child's Ia
+    T* IAi = art.IA[i].data();
+    const T* base = art.gathers[i] ? IAi : kin.I[i].data();
+    C IA[6], Ia[6] = {};
+    for (int c = 0; c < 6; ++c) {
+      IA[c] = C::load(base + 6 * c);
+      if (carried) IA[c] = IA[c] + carry[c];
+      IA[c].store(IAi + 6 * c);
     }
-    // More DOFs: the same steps on fixed-size blocks (k = 3, 6) where possible.
-    forJointSize(k, [&](auto K) { articulatedStep(K, kin, art, i, p, v, k); });
+    // U, D⁻¹, U D⁻¹ and Ia, on fixed-size blocks for k = 1, 3, 6
+    forJointSize(k, [&](auto K) { articulatedStep(K, kin, art, IA, i, v, k, p >= 0, Ia); });
+    // Ia to the parent: in registers if it is the next body, else into its IA.
+    carried = p >= 0 && p == i - 1;
+    if (carried)
+      for (int c = 0; c < 6; ++c) carry[c] = Ia[c];
+    else if (p >= 0)
+      for (int c = 0; c < 6; ++c) {
+        T* IAp = art.IA[p].data() + 6 * c;
+        (C::load(IAp) + Ia[c]).store(IAp);
+      }
   }
 }
 
