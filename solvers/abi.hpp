@@ -106,9 +106,9 @@ struct VectorLanes {
   void setZero() {
     for (V& x : p) x = V{};
   }
-  double* data() { return reinterpret_cast<double*>(p); }
+  // For intrinsic loads only (abiStoreLine: their pointer types may alias anything).
   const double* data() const { return reinterpret_cast<const double*>(p); }
-  double& operator()(int w) { return data()[w]; }
+  void set(int w, double x) { p[w / L][w % L] = x; }
   double operator()(int w) const { return p[w / L][w % L]; }
   VectorLanes& operator+=(const VectorLanes& o) {
     for (int i = 0; i < W / L; ++i) p[i] += o.p[i];
@@ -141,6 +141,15 @@ using LaneT = Eigen::Array<T, 1, W>;
 template <class Lane>
 inline constexpr bool kVectorLanes = false;
 #endif
+
+// Lane w of l set to x (on vector lanes by element, never through a double*).
+template <class Lane, class X>
+inline void setLane(Lane& l, int w, const X& x) {
+  if constexpr (kVectorLanes<Lane>)
+    l.set(w, x);
+  else
+    l(w) = x;
+}
 
 // f(0) … f(5), row by row. On vector lanes each index is a compile-time constant, so that a
 // block's running Y and Δv can stay in registers; on Eigen lanes a plain loop.
@@ -202,7 +211,7 @@ struct AbiLanes {
         held(m.nb(), 0),
         link(m.nb(), 0),
         e(W, Lane::Zero()) {
-    for (int w = 0; w < W; ++w) e[w](w) = T(1);
+    for (int w = 0; w < W; ++w) setLane(e[w], w, T(1));
     for (int j = 1; j < m.nb(); ++j)
       if (m.parent(j) >= 0 && m.parent(j) != j - 1) gather[m.parent(j)] = 1;
     for (int j = 1; j < m.nb(); ++j) link[j] = m.nvOf(j) == 1 && m.parent(j) == j - 1 && !gather[j];
@@ -396,7 +405,7 @@ struct LaneRows {
       for (int j = 0; j < k && v + j < end; ++j) {
         T* dst = x + (v + j) * ld;
         if (width < W)
-          std::copy_n(u[v + j].data(), width, dst);
+          for (int w = 0; w < width; ++w) dst[w] = u[v + j](w);
         else if (W % 8 == 0 && stream)
           for (int w = 0; w < W; w += 8) abiStoreLine(dst + w, u[v + j].data() + w);
         else
@@ -559,7 +568,7 @@ MINV_FLATTEN void abiSolveBlock(const Model& model, const Kinematics<T>& kin,
   // r: the right-hand sides, one per lane (unused lanes zero); Y is zero between blocks.
   for (int v = 0; v < nv; ++v) {
     ws.u[v].setZero();
-    for (int w = 0; w < width; ++w) ws.u[v](w) = R(v, c0 + w);
+    for (int w = 0; w < width; ++w) setLane(ws.u[v], w, R(v, c0 + w));
   }
   abiBackward<T, W, false>(model, kin, art, ws, nb - 1);
   mark("impulse propagation");
