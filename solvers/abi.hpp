@@ -374,6 +374,9 @@ inline void abiStoreLine(T* dst, const T* src) {
 #endif
       return;
     }
+    // (src may be a VectorLanes' storage: read with intrinsics, never through a double*)
+    for (int k = 0; k < 8; k += 2) _mm_storeu_pd(dst + k, _mm_loadu_pd(src + k));
+    return;
   }
   std::copy_n(src, 8, dst);
 }
