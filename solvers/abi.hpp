@@ -68,6 +68,9 @@ inline int omp_thread() {
 // best at every level measured on Zen 5 (one run per change, each level's time over the
 // unchanged avx512 one, serial n = 256 … 2048): baseline (SSE2) with 8 lanes is no faster,
 // avx2 with 8 is 10–18 % slower, and avx512 with 32 (four zmm per row) is 10–12 % slower.
+// Again with the narrower blocks held in registers (VectorLanes below), two runs: avx2 with 8
+// lanes 7 % slower at n = 16 and 13–22 % from 256 to 2048; baseline with 4 lanes 10 % faster at
+// n = 16 but 8 % slower at 64 and 23–45 % from 256 to 2048.
 #ifndef MINV_ABI_LANES
 #define MINV_ABI_LANES 16
 #endif
