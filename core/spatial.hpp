@@ -67,13 +67,10 @@ struct Six {
   }
 };
 
-#if defined(__GNUC__) && defined(__AVX512F__)
-typedef double SixLanes __attribute__((vector_size(64)));
-#endif
 template <>
 struct Six<double> {
 #if defined(__GNUC__) && defined(__AVX512F__)
-  using V = SixLanes;
+  typedef double V __attribute__((vector_size(64)));
   static MINV_INLINE V loadLanes(const double* p) {
     return V{p[0], p[1], p[2], p[3], p[4], p[5], 0.0, 0.0};
   }

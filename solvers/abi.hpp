@@ -20,8 +20,9 @@
 // their Δv never needs a later body): both sweeps stop at b, and each block writes its
 // columns above the diagonal and, by symmetry, its rows left of it. Columns go in blocks of W lanes
 // (W = kAbiLanes<T>: 16 for double, 1 for the counting scalar), one lane per column, so every
-// update is a W-wide vector operation; along a chain Y and Δv pass from body to body without
-// a store; blocks run in OpenMP threads (setThreads), each thread reading its own copy of the
+// update is a W-wide vector operation; along a chain Y and Δv pass from body to body in local
+// variables, not the workspace (in registers where a row is one or two vectors: VectorLanes
+// below); blocks run in OpenMP threads (setThreads), each thread reading its own copy of the
 // configuration, which it makes itself in the same parallel region (AbiSolver::configure: one
 // fork per configure + inverse). Multi-DOF joints make D a k×k block.
 // Cost: Σ_c (depth(b_c) + b_c) body steps ≈ n²/2 + Σ depth for M⁻¹ (Θ(n²)); Θ(m·nb) for M⁻¹R.
