@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Cholesky>
+#include <Eigen/Geometry>
 #include <cmath>
 #include <numbers>
 
@@ -88,6 +89,38 @@ TEST(SimDynamics, AbaMomentumRateIsGravityWrench) {
     ext += unitWrench(com, g) * m.body(i).mass;
   }
   EXPECT_LT((dh - ext).norm(), 1e-5 * ext.norm()) << dh.transpose() << "\n" << ext.transpose();
+}
+
+// integrate's rotation of a spherical or floating joint against the closed form
+// Q ⊗ (cos φ, sin φ ω/|ω|), φ = h|ω|/2, through Eigen's angle-axis quaternion: small steps (the
+// series branch), large ones (std::sin, std::cos), backwards, and ω = 0.
+TEST(SimDynamics, IntegrateRotatesByTheExponential) {
+  const Centipede c = makeCentipede({.segments = 3, .segment_joint = SegmentJoint::Spherical});
+  const Model& m = c.model;
+  int rotations = 0;
+  for (const double h : {1e-5, -1e-5, 3e-3, 0.3, -0.7}) {
+    for (const double scale : {0.0, 1.0, 20.0}) {
+      const Eigen::VectorXd q = randomConfiguration(m, 7);
+      const Eigen::VectorXd v = randomVector(m.nv(), 8, scale);
+      Eigen::VectorXd qn = q;
+      integrate(m, qn, v, h);
+      for (int i = 0; i < m.nb(); ++i) {
+        const JointType type = m.joint(i).type;
+        if (type != JointType::Spherical && type != JointType::Floating) continue;
+        const int o = m.qIdx(i) + (type == JointType::Floating ? 3 : 0), vi = m.vIdx(i);
+        const Eigen::Vector3d w = v.segment<3>(vi);
+        Eigen::Quaterniond Q(q(o), q(o + 1), q(o + 2), q(o + 3));
+        if (w.norm() > 0)
+          Q = Q * Eigen::Quaterniond(Eigen::AngleAxisd(h * w.norm(), w.normalized()));
+        Q.normalize();
+        const Eigen::Vector4d ref(Q.w(), Q.x(), Q.y(), Q.z());
+        EXPECT_LT((qn.segment<4>(o) - ref).cwiseAbs().maxCoeff(), 2e-15)
+            << "body " << i << ", h " << h << ", |w| " << w.norm();
+        ++rotations;
+      }
+    }
+  }
+  EXPECT_GT(rotations, 50);
 }
 
 // Relative change of the total spatial momentum of a free-floating centipede (no gravity, no
