@@ -1,5 +1,6 @@
 #include "sim/simulator.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <stdexcept>
 
@@ -77,8 +78,9 @@ Simulator::Simulator(const Model& model, std::vector<ContactPoint> points, SimOp
   const int nv = model_.nv();
   q_ = model_.neutral();
   v_ = tau_ = qdd_ = vstar_ = dv_ = scratch_ = Eigen::VectorXd::Zero(nv);
-  warm_.assign(points_.size(), Eigen::VectorXd());
-  warm_prev_.assign(points_.size(), Eigen::VectorXd());
+  warm_.setZero(o_.friction_dirs, points_.size());
+  warm_prev_.setZero(o_.friction_dirs, points_.size());
+  warm_steps_.assign(points_.size(), 0);
   if (o_.path == kTestImpulsePath && o_.threads > 1) {
     column_ws_.assign(o_.threads, ImpulseWorkspace(model_));
     column_scratch_.assign(o_.threads, Eigen::VectorXd::Zero(nv));
@@ -151,8 +153,7 @@ void Simulator::step() {
         continue;
       }
     }
-    warm_[c].resize(0);
-    warm_prev_[c].resize(0);
+    warm_steps_[c] = 0;
   }
   const int nc = static_cast<int>(active_.size()), m = 3 * nc;
   st.collision = since(t0);
@@ -200,19 +201,19 @@ void Simulator::step() {
     prob_.k = k;
     warm_beta_.resize(k * nc);
     for (int c = 0; c < nc; ++c) {
-      const Eigen::VectorXd &w = warm_[active_[c]], &wp = warm_prev_[active_[c]];
-      auto out = warm_beta_.segment(k * c, k);
-      if (w.size() == k && wp.size() == k)
-        out = (2 * w - wp).cwiseMax(0.0);
-      else if (w.size() == k)
-        out = w;
-      else
-        out.setZero();
+      const int a = active_[c], steps = warm_steps_[a];
+      const double *w = warm_.col(a).data(), *wp = warm_prev_.col(a).data();
+      double* out = warm_beta_.data() + k * c;
+      for (int j = 0; j < k; ++j)
+        out[j] = steps >= 2 ? std::max(0.0, 2 * w[j] - wp[j]) : steps == 1 ? w[j] : 0.0;
     }
     solveMaxDissipation(prob_, warm_beta_, o_.contact, sol_);
+    // This step's weights become the last, the last the one before.
     for (int c = 0; c < nc; ++c) {
-      std::swap(warm_prev_[active_[c]], warm_[active_[c]]);
-      warm_[active_[c]] = sol_.beta.segment(k * c, k);
+      const int a = active_[c];
+      double *w = warm_.col(a).data(), *wp = warm_prev_.col(a).data();
+      for (int j = 0; j < k; ++j) wp[j] = w[j], w[j] = sol_.beta(k * c + j);
+      warm_steps_[a] = std::min(warm_steps_[a] + 1, 2);
     }
     lambda_ = sol_.lambda;
     residuals_ = sol_.residuals;

@@ -136,8 +136,10 @@ class Simulator {
   Eigen::MatrixXd J_, X_, Xt_;
   ContactProblem prob_;  // A is built in place here
   ContactSolution sol_;  // the last solve (its storage kept)
-  // Per contact point, the generator weights of the last two steps (empty: not in contact).
-  std::vector<Eigen::VectorXd> warm_, warm_prev_;
+  // Per contact point (a column each), the generator weights of the last two steps, and in
+  // how many of them (0, 1, 2: two or more) the point was in contact.
+  Eigen::MatrixXd warm_, warm_prev_;
+  std::vector<int> warm_steps_;
   std::vector<int> active_;
   // This step's contact directions (3 per active contact): body, unit wrench, velocity; the
   // normal bias per contact. Members so that their capacity is kept from step to step.
