@@ -64,8 +64,9 @@
 // and holds A_rc = (J_rᵀ)ᵀ M⁻¹ J_c on exit, exactly symmetric, every entry written. Any tree:
 // forests, several directions on one body, directions on a (floating) root, joints of 1, 3 or
 // 6 DOFs. The workspace is built once per tree for up to `max_columns` directions; the kernel
-// does not allocate unless m exceeds that capacity (then it grows it once). Templated on the
-// scalar: the Counted instantiation counts the very code that runs on double. With threads > 1
+// does not allocate unless m exceeds that capacity (then it grows it once); the per-call
+// tables (the directions' order, where Ω is needed) are kept while the bodies repeat. Templated on
+// the scalar: the Counted instantiation counts the very code that runs on double. With threads > 1
 // the large pair blocks (the Θ(m²) part) are split by rows among OpenMP threads; the result is
 // the same bit for bit (every entry is computed by the same products in the same order).
 #pragma once
@@ -98,8 +99,10 @@ struct ContactInertiaWorkspace {
   std::vector<int> own, cnt, start, cursor, kids;
   std::vector<Mat6<T>> Omega, Phi, Bpend;
   std::vector<char> phi_identity, need, pend;
-  // Per direction: sorted position → input index; F (row per direction), F·Ω, Fᵀ·S scratch.
-  std::vector<int> perm;
+  // Per direction: sorted position → input index and back; F (row per direction), F·Ω, Fᵀ·S
+  // scratch. The bodies of the last call's directions, and whether the tables are theirs.
+  std::vector<int> perm, pos, bodies;
+  bool tables = false, identity = true;
   RowsX6 F, G, Tk;
   MatX<T> tile;
 
@@ -144,7 +147,7 @@ struct ContactInertiaWorkspace {
   // Capacity for m directions.
   void reserve(int m) {
     if (static_cast<int>(perm.size()) >= m) return;
-    perm.resize(m);
+    perm.resize(m), pos.resize(m), bodies.reserve(m);
     F.resize(m, 6);
     G.resize(m, 6);
     Tk.resize(m, 6);
@@ -401,36 +404,45 @@ void contactInertia(const Model& model, const Kinematics<T>& kin, const Articula
     throw std::invalid_argument("contactInertia: bodies, wrenches and A (m x m) disagree");
   if (m == 0) return;
   ws.reserve(m);
-  // Directions per body, each subtree's range in preorder, the sorted order (stable).
-  std::fill(ws.own.begin(), ws.own.end(), 0);
-  for (int r = 0; r < m; ++r) ++ws.own[bodies[r]];
-  for (int p = 0, run = 0; p < nb; ++p) {
-    const int i = ws.order[p];
-    ws.start[i] = ws.cursor[i] = run;
-    run += ws.own[i];
-  }
-  bool identity = true;
-  for (int r = 0; r < m; ++r) {
-    const int pos = ws.cursor[bodies[r]]++;
-    ws.perm[pos] = r;
-    identity &= pos == r;
-    ws.F.row(pos) = wrenches[r].transpose();
-  }
-  for (int i = 0; i < nb; ++i) ws.cnt[i] = ws.own[i], ws.kids[i] = 0, ws.need[i] = 0;
-  for (int i = nb - 1; i >= 0; --i)
-    if (model.parent(i) >= 0 && ws.cnt[i] > 0) {
-      ws.cnt[model.parent(i)] += ws.cnt[i];
-      ++ws.kids[model.parent(i)];
-    }
-  // Ω where pairs meet and on the way down to there: a root, a body with directions of its own
-  // and below it, or below two children, or a leaf with too many to defer; and their ancestors.
   constexpr int kDirect = ContactInertiaWorkspace<T>::kDirectMax;
-  for (int i = nb - 1; i >= 0; --i) {
-    const int o = ws.own[i], kd = ws.kids[i];
-    ws.need[i] |= ws.cnt[i] > 0 && (model.parent(i) < 0 || kd >= 2 || (o > 0 && kd >= 1) ||
-                                    (kd == 0 && o > kDirect));
-    if (ws.need[i] && model.parent(i) >= 0) ws.need[model.parent(i)] = 1;
+  // The per-call tables below depend only on the directions' bodies: kept while they repeat,
+  // as a simulator's contacts do from step to step.
+  if (!ws.tables || ws.bodies != bodies) {
+    // Directions per body, each subtree's range in preorder, the sorted order (stable).
+    std::fill(ws.own.begin(), ws.own.end(), 0);
+    for (int r = 0; r < m; ++r) ++ws.own[bodies[r]];
+    for (int p = 0, run = 0; p < nb; ++p) {
+      const int i = ws.order[p];
+      ws.start[i] = ws.cursor[i] = run;
+      run += ws.own[i];
+    }
+    ws.identity = true;
+    for (int r = 0; r < m; ++r) {
+      const int pos = ws.cursor[bodies[r]]++;
+      ws.perm[pos] = r, ws.pos[r] = pos;
+      ws.identity &= pos == r;
+    }
+    for (int i = 0; i < nb; ++i) ws.cnt[i] = ws.own[i], ws.kids[i] = 0, ws.need[i] = 0;
+    for (int i = nb - 1; i >= 0; --i)
+      if (model.parent(i) >= 0 && ws.cnt[i] > 0) {
+        ws.cnt[model.parent(i)] += ws.cnt[i];
+        ++ws.kids[model.parent(i)];
+      }
+    // Ω where pairs meet and on the way down to there: a root, a body with directions of its
+    // own and below it, or below two children, or a leaf with too many to defer; and their
+    // ancestors.
+    for (int i = nb - 1; i >= 0; --i) {
+      const int o = ws.own[i], kd = ws.kids[i];
+      ws.need[i] |= ws.cnt[i] > 0 && (model.parent(i) < 0 || kd >= 2 || (o > 0 && kd >= 1) ||
+                                      (kd == 0 && o > kDirect));
+      if (ws.need[i] && model.parent(i) >= 0) ws.need[model.parent(i)] = 1;
+    }
+    ws.bodies = bodies;  // within the capacity reserved for m
+    ws.tables = true;
   }
+  const bool identity = ws.identity;
+  // F: a row per direction, in the sorted order.
+  for (int r = 0; r < m; ++r) ws.F.row(ws.pos[r]) = wrenches[r].transpose();
 
   // (1) Ω top-down where needed.
   for (int i = 0; i < nb; ++i) {

@@ -304,19 +304,21 @@ TEST(ContactInertia, Forest) {
 }
 
 // The workspace grows once when m exceeds its capacity, and one workspace serves calls with
-// changing contact sets.
+// changing contact sets, and with a set repeated at a new configuration (its tables kept).
 TEST(ContactInertia, WorkspaceReuse) {
   const Centipede cp = makeCentipede({.segments = 6});
   const Model& m = cp.model;
   ContactInertiaWorkspace<double> ws(m, 3);
   Articulated<double> art(m);
   Kinematics<double> kin(m);
-  for (int call = 0; call < 4; ++call) {
+  const int sets[] = {0, 0, 1, 1, 2, 0, 3, 3, 3};
+  for (int call = 0; call < 9; ++call) {
+    const int set = sets[call];
     const Eigen::VectorXd q = randomConfiguration(m, 60 + call);
     computeKinematics<double>(m, q, kin);
     articulatedInertias<double>(m, kin, art);
     Contacts c;
-    for (int l = call; l < cp.legs(); l += 1 + call) {
+    for (int l = set; l < cp.legs(); l += 1 + set) {
       const Pose<double>& X = kin.X[cp.lower_body[l]];
       c.point(cp.lower_body[l], X.p + X.R * cp.tip);
     }
