@@ -94,14 +94,18 @@ struct ContactInertiaWorkspace {
 
   // Per tree: preorder of the bodies, each body's position in it, children (CSR, by index).
   std::vector<int> order, pre, child_start, children;
-  // Per body, per call: directions on the body, in its subtree, range start, children with
-  // directions; Ω, pending Φ; Ω needed; a deferred own block (the K terms summed so far).
+  // Per body, kept while the directions' bodies repeat (the tables): directions on the body,
+  // in its subtree, range start, children with directions, Ω needed. Per body, per call: Ω,
+  // pending Φ, a deferred own block (the K terms summed so far), their flags.
   std::vector<int> own, cnt, start, cursor, kids;
   std::vector<Mat6<T>> Omega, Phi, Bpend;
   std::vector<char> phi_identity, need, pend;
-  // Per direction: sorted position → input index and back; F (row per direction), F·Ω, Fᵀ·S
-  // scratch. The bodies of the last call's directions, and whether the tables are theirs.
+  // Per direction: sorted position → input index and back (tables); F (row per direction, per
+  // call), F·Ω, Fᵀ·S scratch. The first `nbodies` of `bodies` are the last call's directions'
+  // bodies (sized to the capacity, so that a copied workspace keeps it); `tables`: whether the
+  // tables are theirs.
   std::vector<int> perm, pos, bodies;
+  int nbodies = 0;
   bool tables = false, identity = true;
   RowsX6 F, G, Tk;
   MatX<T> tile;
@@ -147,7 +151,7 @@ struct ContactInertiaWorkspace {
   // Capacity for m directions.
   void reserve(int m) {
     if (static_cast<int>(perm.size()) >= m) return;
-    perm.resize(m), pos.resize(m), bodies.reserve(m);
+    perm.resize(m), pos.resize(m), bodies.resize(m);
     F.resize(m, 6);
     G.resize(m, 6);
     Tk.resize(m, 6);
@@ -416,7 +420,8 @@ void contactInertia(const Model& model, const Kinematics<T>& kin, const Articula
   constexpr int kDirect = ContactInertiaWorkspace<T>::kDirectMax;
   // The per-call tables below depend only on the directions' bodies: kept while they repeat,
   // as a simulator's contacts do from step to step.
-  if (!ws.tables || ws.bodies != bodies) {
+  if (!ws.tables || ws.nbodies != m ||
+      !std::equal(bodies.begin(), bodies.end(), ws.bodies.begin())) {
     // Directions per body, each subtree's range in preorder, the sorted order (stable).
     std::fill(ws.own.begin(), ws.own.end(), 0);
     for (int r = 0; r < m; ++r) ++ws.own[bodies[r]];
@@ -446,7 +451,8 @@ void contactInertia(const Model& model, const Kinematics<T>& kin, const Articula
                                       (kd == 0 && o > kDirect));
       if (ws.need[i] && model.parent(i) >= 0) ws.need[model.parent(i)] = 1;
     }
-    ws.bodies = bodies;  // within the capacity reserved for m
+    std::copy(bodies.begin(), bodies.end(), ws.bodies.begin());
+    ws.nbodies = m;
     ws.tables = true;
   }
   const bool identity = ws.identity;

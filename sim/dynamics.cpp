@@ -169,9 +169,10 @@ namespace {
 // Q ← Q ⊗ exp(h ω / 2) for q(o … o+3) = (w, x, y, z), renormalised. The exponential is
 // (cos φ, sin φ · ω/|ω|) with φ = h|ω|/2. Below φ = 0.02 (a step's rotation, h|ω| ≤ 0.04) cos φ
 // and sin φ / φ are their Taylor series in φ², to the φ⁸ term (the first omitted one is below
-// 10⁻²³), without a square root or a libm call; above, std::sin and std::cos.
+// 10⁻²³), without a libm call (the renormalisation's square root aside); above, std::sin and
+// std::cos.
 void rotate(Eigen::VectorXd& q, int o, const Eigen::Vector3d& w, double h) {
-  const double phi2 = 0.25 * h * h * w.squaredNorm();
+  const double phi2 = (0.5 * h * w).squaredNorm();  // 0 for ω = 0 whatever h
   double c, s;  // cos φ and sin φ / |ω|, so that the vector part is s ω
   if (phi2 < 4e-4) {
     c = 1 - phi2 * (1.0 / 2) *

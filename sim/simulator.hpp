@@ -29,9 +29,10 @@
 //                first-order change (the walking centipede after 300 steps of 10⁻⁵ s, S = 5
 //                and 20, two inner passes: 2 block Gauss–Seidel sweeps per solve, against 10
 //                from β_{t−1} and 12 from 0, at the same tolerance; the answer is the
-//                solver's, whatever the start). A second-difference term was tried: with
-//                weight ½ it saved a sweep on a few steps but not the median one, with weight 1
-//                (quadratic extrapolation) 23 sweeps instead of 3 (one inner pass, S = 5).
+//                solver's, whatever the start). A second-difference term was tried (one inner
+//                pass, the median over `minv simulate sweep --segments 5 --steps 1000`): with
+//                weight ½ it saved a sweep on some steps but not the median one (3), with
+//                weight 1 (quadratic extrapolation) the median took 23.
 //   update       v⁺ = v* + M⁻¹Jλ (solver paths: X λ; test-impulse and contact-inertia: one
 //                impulse sweep), then
 //                q ← q ⊕ h v⁺ (sim/dynamics.hpp). This is semi-implicit ("symplectic")

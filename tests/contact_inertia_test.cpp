@@ -328,6 +328,39 @@ TEST(ContactInertia, WorkspaceReuse) {
   }
 }
 
+// The cached tables on any tree: one workspace (and a copy of it) through sets of directions
+// that repeat at new configurations, out of preorder, with several on one body, and a larger
+// set after a smaller one; every A against the dense reference, every entry written.
+TEST(ContactInertia, CachedTablesOnRandomTrees) {
+  for (int trial = 0; trial < 6; ++trial) {
+    const Model m = floatingMixed(8 + 4 * trial, 700u + trial);
+    Rng rng(800 + trial);
+    // Three sets of (body, direction seed); each call draws its wrenches at its own q.
+    std::vector<std::vector<int>> sets(3);
+    for (int k = 0; k < 3; ++k)
+      for (int e = 0; e < 2 + 3 * k; ++e) sets[k].push_back(rng.below(m.nb()));
+    sets[1].push_back(sets[1][0]);  // two directions on one body
+    ContactInertiaWorkspace<double> ws(m, 2);
+    Articulated<double> art(m);
+    const int order[] = {0, 0, 1, 1, 0, 2, 2, 1};
+    for (int call = 0; call < 8; ++call) {
+      const Eigen::VectorXd q = randomConfiguration(m, 900 + 10 * trial + call);
+      const Kinematics<double> kin = kinematicsAt(m, q);
+      articulatedInertias<double>(m, kin, art);
+      Contacts c;
+      for (int b : sets[order[call]]) c.add(b, unitWrench(nearBody(kin, b, rng), rng.unitVector()));
+      ContactInertiaWorkspace<double> copy = ws;  // a copy keeps the tables and the capacity
+      for (ContactInertiaWorkspace<double>* w : {&ws, &copy}) {
+        Eigen::MatrixXd A(c.m(), c.m());
+        A.setConstant(std::nan(""));
+        contactInertia<double>(m, kin, art, c.bodies, c.wrenches, *w, A);
+        EXPECT_TRUE(A.allFinite()) << trial << " " << call;
+        EXPECT_LT(relativeError(A, denseReference(m, q, kin, c)), 1e-10) << trial << " " << call;
+      }
+    }
+  }
+}
+
 // The Counted instantiation computes the same A (it is the same code).
 TEST(ContactInertia, CountedGivesTheSameNumbers) {
   const Model m = floatingMixed(20, 31);

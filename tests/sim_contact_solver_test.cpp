@@ -213,7 +213,7 @@ TEST(SimContactSolver, BlockSolveMatchesReferenceOnRandomProblems) {
     Rng rng(1900 + trial);
     Eigen::VectorXd warm(p.k * nc);
     for (int j = 0; j < warm.size(); ++j) warm(j) = rng.uniform() < 0.5 ? 0.0 : rng.uniform();
-    for (int inner : {1, 3}) {
+    for (int inner : {1, 2, 3}) {
       for (double tolerance : {1e-9, 1e-12}) {
         ContactSolverOptions o;
         o.tolerance = tolerance;
