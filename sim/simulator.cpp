@@ -138,16 +138,23 @@ void Simulator::step() {
         velocities = true;
       }
       const double bc = phi >= 0 ? phi / h : o_.erp * phi / h;
-      Vec6<double> f[3];
-      for (int d = 0; d < 3; ++d)
-        f[d] = unitWrench(p, Eigen::Vector3d::Unit((d + 2) % 3));  // z, x, y
-      const double vn = f[0].dot(aba_.V.col(b));
-      if (vn + bc < 0) {
+      // The point's velocity u = v + ω × p (body b's V* = (ω, v) about the world origin): the
+      // velocity of direction e's unit wrench (p × e, e) is Vᵀ(p × e, e) = e·u.
+      const double* V = aba_.V.col(b).data();
+      const double u[3] = {V[3] + (V[1] * p[2] - V[2] * p[1]), V[4] + (V[2] * p[0] - V[0] * p[2]),
+                           V[5] + (V[0] * p[1] - V[1] * p[0])};
+      if (u[2] + bc < 0) {
         active_.push_back(c);
+        // Directions z, x, y: (p × e, e), written entry by entry.
         for (int d = 0; d < 3; ++d) {
+          const int e = (d + 2) % 3;
+          double* f = wrenches.emplace_back().data();
+          f[0] = e == 0 ? 0.0 : e == 1 ? -p[2] : p[1];
+          f[1] = e == 0 ? p[2] : e == 1 ? 0.0 : -p[0];
+          f[2] = e == 0 ? -p[1] : e == 1 ? p[0] : 0.0;
+          f[3] = e == 0, f[4] = e == 1, f[5] = e == 2;
           bodies.push_back(b);
-          wrenches.push_back(f[d]);
-          vel.push_back(f[d].dot(aba_.V.col(b)));
+          vel.push_back(u[e]);
         }
         bias.push_back(bc);
         continue;
