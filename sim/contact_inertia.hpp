@@ -293,7 +293,8 @@ void composePropagator(const Kinematics<T>& kin, const Articulated<T>& art, int 
 
 // B ← B + t D_c⁻¹ tᵀ (lower triangle) for t = F_rows S_c (L×k), left in Tk by
 // applyPropagator: joint c's term f_xᵀ K_c f_y = (S_cᵀ f_x)ᵀ D_c⁻¹ (S_cᵀ f_y) of a deferred block.
-// K: k at compile time (1 and 3: the centipede's knees and hips), or Eigen::Dynamic.
+// K: k at compile time (forJointSize: 1, 3, 6; the centipede's knees and hips are 1 and 3), or
+// Eigen::Dynamic.
 template <class T, int K>
 void addJointTerm(std::integral_constant<int, K>, const Articulated<T>& art,
                   const ContactInertiaWorkspace<T>& ws, int c, int kk, int L, Mat6<T>& B) {
@@ -319,9 +320,7 @@ void addJointTerm(std::integral_constant<int, K>, const Articulated<T>& art,
 template <class T>
 void addJointTerm(const Articulated<T>& art, const ContactInertiaWorkspace<T>& ws, int c, int k,
                   int L, Mat6<T>& B) {
-  if (k == 1) return addJointTerm(std::integral_constant<int, 1>{}, art, ws, c, k, L, B);
-  if (k == 3) return addJointTerm(std::integral_constant<int, 3>{}, art, ws, c, k, L, B);
-  addJointTerm(std::integral_constant<int, Eigen::Dynamic>{}, art, ws, c, k, L, B);
+  forJointSize(k, [&](auto K) { addJointTerm(K, art, ws, c, k, L, B); });
 }
 
 // A deferred block finished at a: A(P(x), P(y)) = F_x Ω_a F_yᵀ + B(x, y) for the rows

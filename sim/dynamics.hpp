@@ -58,9 +58,12 @@ void aba(const Model& model, const Kinematics<double>& kin, const Articulated<do
          AbaWorkspace& ws, Eigen::VectorXd& qdd);
 
 // The spatial force of a unit force along d at world point p.
+inline void unitWrench(const Eigen::Vector3d& p, const Eigen::Vector3d& d, Vec6<double>& f) {
+  f << p.cross(d), d;
+}
 inline Vec6<double> unitWrench(const Eigen::Vector3d& p, const Eigen::Vector3d& d) {
   Vec6<double> f;
-  f << p.cross(d), d;
+  unitWrench(p, d, f);
   return f;
 }
 

@@ -145,14 +145,11 @@ void Simulator::step() {
                            V[5] + (V[0] * p[1] - V[1] * p[0])};
       if (u[2] + bc < 0) {
         active_.push_back(c);
-        // Directions z, x, y: (p × e, e), written entry by entry.
+        // Directions z, x, y, their wrenches built in place (a Vec6 returned and copied was
+        // reloaded in pairs straddling its halves, a load no store forwards).
         for (int d = 0; d < 3; ++d) {
           const int e = (d + 2) % 3;
-          double* f = wrenches.emplace_back().data();
-          f[0] = e == 0 ? 0.0 : e == 1 ? -p[2] : p[1];
-          f[1] = e == 0 ? p[2] : e == 1 ? 0.0 : -p[0];
-          f[2] = e == 0 ? -p[1] : e == 1 ? p[0] : 0.0;
-          f[3] = e == 0, f[4] = e == 1, f[5] = e == 2;
+          unitWrench(p, Eigen::Vector3d::Unit(e), wrenches.emplace_back());
           bodies.push_back(b);
           vel.push_back(u[e]);
         }
