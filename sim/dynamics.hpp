@@ -40,9 +40,15 @@ struct ContactPoint {
 // Scratch for aba().
 struct AbaWorkspace {
   Mat6N<double> V, c, pA, a;  // per body: velocity, velocity-product acceleration, bias, accel.
+  Mat6N<double> Vstar;        // per body: velocity after the step (abaStep)
   Eigen::VectorXd u;
   explicit AbaWorkspace(const Model& m)
-      : V(Mat6N<double>::Zero(6, m.nb())), c(V), pA(V), a(V), u(Eigen::VectorXd::Zero(m.nv())) {}
+      : V(Mat6N<double>::Zero(6, m.nb())),
+        c(V),
+        pA(V),
+        a(V),
+        Vstar(V),
+        u(Eigen::VectorXd::Zero(m.nv())) {}
 };
 
 // Scratch of the impulse sweeps (core/impulse_sweeps.hpp): Y, Δv per body, u per DOF.
@@ -56,6 +62,12 @@ void bodyVelocities(const Model& model, const Kinematics<double>& kin, const Eig
 void aba(const Model& model, const Kinematics<double>& kin, const Articulated<double>& art,
          const Eigen::VectorXd& v, const Eigen::VectorXd& tau, const Eigen::Vector3d& gravity,
          AbaWorkspace& ws, Eigen::VectorXd& qdd);
+
+// aba() and the unconstrained step in its forward pass: vstar = v + h q̈ and ws.Vstar the
+// bodies' velocities V*_i = V*_λ(i) + S_i v*_i (bodyVelocities of vstar, without another pass).
+void abaStep(const Model& model, const Kinematics<double>& kin, const Articulated<double>& art,
+             const Eigen::VectorXd& v, const Eigen::VectorXd& tau, const Eigen::Vector3d& gravity,
+             double h, AbaWorkspace& ws, Eigen::VectorXd& qdd, Eigen::VectorXd& vstar);
 
 // The spatial force of a unit force along d at world point p.
 inline void unitWrench(const Eigen::Vector3d& p, const Eigen::Vector3d& d, Vec6<double>& f) {

@@ -111,10 +111,9 @@ void Simulator::step() {
   StepTimes st;
   Clock::time_point t0 = Clock::now();
 
-  // dynamics: v* = v + h·ABA(q, v, τ).
+  // dynamics: v* = v + h·ABA(q, v, τ), and the bodies' velocities V* (ABA's forward pass).
   articulatedWide(model_, q_, kin_, art_);
-  aba(model_, kin_, art_, v_, tau_, o_.gravity, aba_, qdd_);
-  vstar_ = v_ + h * qdd_;
+  abaStep(model_, kin_, art_, v_, tau_, o_.gravity, h, aba_, qdd_, vstar_);
   st.dynamics = since(t0);
 
   // collision: points below the margin that approach the plane (v*_n + b < 0: a separating
@@ -126,21 +125,16 @@ void Simulator::step() {
   std::vector<double>& bias = bias_;
   std::vector<double>& vel = vel_;
   bodies.clear(), wrenches.clear(), bias.clear(), vel.clear();
-  bool velocities = false;
   for (int c = 0; c < static_cast<int>(points_.size()); ++c) {
     const int b = points_[c].body;
     const Pose<double>& X = kin_.X[b];
     const Eigen::Vector3d p = X.p + X.R * points_[c].point;
     const double phi = p.z();
     if (phi < o_.margin) {
-      if (!velocities) {
-        bodyVelocities(model_, kin_, vstar_, aba_.V);
-        velocities = true;
-      }
       const double bc = phi >= 0 ? phi / h : o_.erp * phi / h;
       // The point's velocity u = v + ω × p (body b's V* = (ω, v) about the world origin): the
       // velocity of direction e's unit wrench (p × e, e) is Vᵀ(p × e, e) = e·u.
-      const double* V = aba_.V.col(b).data();
+      const double* V = aba_.Vstar.col(b).data();
       const double u[3] = {V[3] + (V[1] * p[2] - V[2] * p[1]), V[4] + (V[2] * p[0] - V[0] * p[2]),
                            V[5] + (V[0] * p[1] - V[1] * p[0])};
       if (u[2] + bc < 0) {

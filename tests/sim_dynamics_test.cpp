@@ -57,6 +57,31 @@ TEST(SimDynamics, AbaEqualsCrbaSolveAtRest) {
   EXPECT_LT((qdd - ref).norm(), 1e-9 * ref.norm());
 }
 
+// abaStep's v* = v + h q̈ against aba()'s q̈, and its body velocities V*_b against the sum
+// Σ S_d v*_d over the DOFs d on b's path (no recursion), with gravity and spherical joints.
+TEST(SimDynamics, AbaStepGivesTheStepAndTheBodiesVelocities) {
+  const Centipede c = makeCentipede({.segments = 3, .segment_joint = SegmentJoint::Spherical});
+  const Model& m = c.model;
+  const Eigen::VectorXd q = randomConfiguration(m, 17);
+  const Eigen::VectorXd v = randomVector(m.nv(), 4, 2.0);
+  const Eigen::VectorXd tau = randomVector(m.nv(), 6);
+  const Eigen::Vector3d g(0.1, 0.2, -9.81);
+  const double h = 1e-3;
+  const AtConfiguration at(m, q);
+  AbaWorkspace ws(m), ws_step(m);
+  Eigen::VectorXd qdd(m.nv()), qdd_step(m.nv()), vstar(m.nv());
+  aba(m, at.kin, at.art, v, tau, g, ws, qdd);
+  abaStep(m, at.kin, at.art, v, tau, g, h, ws_step, qdd_step, vstar);
+  EXPECT_LT((qdd_step - qdd).norm(), 1e-12 * qdd.norm());
+  const Eigen::VectorXd ref = v + h * qdd;
+  EXPECT_LT((vstar - ref).norm(), 1e-13 * ref.norm());
+  for (int b = 0; b < m.nb(); ++b) {
+    Vec6<double> V = Vec6<double>::Zero();
+    for (const int d : pathDofs(m, b)) V += at.kin.S.col(d) * ref(d);
+    EXPECT_LT((ws_step.Vstar.col(b) - V).norm(), 1e-12 * (1 + V.norm())) << "body " << b;
+  }
+}
+
 // d/dt of the total spatial momentum is the gravity wrench (Σ m_i g at the coms), so with
 // gravity the ABA accelerations must satisfy d h/dt = Σ I_i a_i + V_i ×* I_i V_i = external.
 TEST(SimDynamics, AbaMomentumRateIsGravityWrench) {
