@@ -219,7 +219,6 @@ void rotate(Eigen::VectorXd& q, int o, const Eigen::Vector3d& w, double h) {
   const double r = 1 / std::sqrt(rw * rw + rx * rx + ry * ry + rz * rz);
   q(o) = rw * r, q(o + 1) = rx * r, q(o + 2) = ry * r, q(o + 3) = rz * r;
 }
-
 }  // namespace
 
 void integrate(const Model& model, Eigen::VectorXd& q, const Eigen::VectorXd& v, double h) {

@@ -2,8 +2,9 @@
 //
 //   aba()              articulated-body forward dynamics (RBDA Table 7.1, in world
 //                      coordinates, where Ṡ_i = V_i × S_i): q̈ = M⁻¹(τ − C(q, v) + gravity),
-//                      given IA, U, D⁻¹ from core/articulated.hpp. Θ(nb). The unconstrained step
-//                      of every solver path.
+//                      given IA, U, D⁻¹ from core/articulated.hpp. Θ(nb). abaStep() also takes
+//                      the unconstrained step of every solver path in its forward pass: v* =
+//                      v + h q̈ and every body's velocity V* (for the contacts' velocities).
 //   contact wrenches   a unit force along direction d at world point p is the spatial force
 //                      f = [p × d; d] about the world origin; the Jacobian column of a contact on
 //                      body b is J_k = S_kᵀ f for the DOFs k of b and its ancestors (zero
@@ -37,7 +38,7 @@ struct ContactPoint {
   Eigen::Vector3d point = Eigen::Vector3d::Zero();
 };
 
-// Scratch for aba().
+// Scratch for aba() and abaStep().
 struct AbaWorkspace {
   Mat6N<double> V, c, pA, a;  // per body: velocity, velocity-product acceleration, bias, accel.
   Mat6N<double> Vstar;        // per body: velocity after the step (abaStep)

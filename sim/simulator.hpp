@@ -4,7 +4,8 @@
 // timed beside ours, is given the same torques computed outside it), then five timed
 // components:
 //   dynamics     kinematics, articulated-body inertias, ABA forward dynamics q̈
-//                (sim/dynamics.hpp), v* = v + h q̈: the same for every path.
+//                (sim/dynamics.hpp), v* = v + h q̈ and the bodies' velocities V* (abaStep):
+//                the same for every path.
 //   collision    each contact point's height φ; points with φ < margin are contacts, with
 //                normal z and tangents x, y; their velocities J₂ᵀv* and the bias
 //                b = φ/h if φ ≥ 0 (speculative: the point may just reach the plane) or
