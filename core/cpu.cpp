@@ -110,6 +110,7 @@ CpuIdentity cpuIdentity() {
   char sig[96];
   std::snprintf(sig, sizeof sig, "family 0x%x model 0x%x stepping %u", family, model, stepping);
   c.signature = sig;
+  c.family = family, c.model = model;
   // AMD's microarchitecture, where the family and model tell it.
   if (c.vendor == "AuthenticAMD") {
     const bool zen4 = (model >= 0x10 && model < 0x20) || (model >= 0x60 && model < 0x80) ||
@@ -150,7 +151,11 @@ bool streamStridedRows() {
     throw std::invalid_argument(std::string("MINV_ABI_ROWS must be stream or plain, not '") +
                                 forced + "'");
   }
-  return cpuIdentity().vendor == "GenuineIntel";
+  return streamsStridedRowsBest(cpuIdentity());
+}
+
+bool streamsStridedRowsBest(const CpuIdentity& cpu) {
+  return !(cpu.vendor == "AuthenticAMD" && cpu.family >= 0x1a);
 }
 
 }  // namespace minv

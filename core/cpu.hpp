@@ -13,6 +13,7 @@ struct CpuIdentity {
   std::string vendor = "unknown";     // "AuthenticAMD", "GenuineIntel"
   std::string signature = "unknown";  // "family 0x19 model 0x11 stepping 1 (Zen 4)"
   std::string extensions;             // the vector extensions present: "sse4.2 avx fma avx2 …"
+  unsigned family = 0, model = 0;     // CPUID's, with the extended fields where they apply
 };
 CpuIdentity cpuIdentity();
 
@@ -33,13 +34,18 @@ bool cpuRuns(Isa isa, std::string* why = nullptr);
 
 // Whether pieces of a few cache lines written one column apart into a large column-major
 // matrix (the rows of M⁻¹ that abi mirrors: 16 doubles per column) go out as non-temporal
-// full-line stores rather than plain ones. Chosen by vendor from measurements (abi's inverse,
-// serial chain, one thread): streamed was 2.2× faster at n = 4096 and 1.3× at n = 1024 on an
-// Intel Xeon (Emerald Rapids), where each plain piece first reads its lines and the column
-// stride sends them all to one cache set; it was 25–35 % slower at n = 4096 on AMD Zen 5.
-// MINV_ABI_ROWS=stream|plain forces either (std::invalid_argument for another value); read
-// at each call (abi reads it in prepare()).
+// full-line stores rather than plain ones. Chosen by microarchitecture from measurements
+// (abi's inverse, serial chain, one thread): streamed was 2.2× faster at n = 4096 and 1.3× at
+// n = 1024 on an Intel Xeon (Emerald Rapids), where each plain piece first reads its lines and
+// the column stride sends them all to one cache set, and 6–13 % faster at n = 1024 … 4096 on
+// AMD Zen 4 (family 0x19); it was 25–35 % slower at n = 4096 on AMD Zen 5 (family 0x1a), the
+// one core that stores them plainly (with the AMD families after it). MINV_ABI_ROWS=stream|plain
+// forces either (std::invalid_argument for another value); read at each call (abi reads it in
+// prepare()).
 bool streamStridedRows();
+// The measured rule alone, for a given CPU (what streamStridedRows() applies without
+// MINV_ABI_ROWS).
+bool streamsStridedRowsBest(const CpuIdentity& cpu);
 
 // The widest vector extension the including translation unit is compiled for (a macro, so that
 // each library and each level's module reports its own flags).

@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <optional>
 #include <string>
@@ -38,6 +39,27 @@ TEST(Cpu, LevelsAgreeWithTheCompilersDetection) {
   EXPECT_NE(id.signature.find("family 0x"), std::string::npos) << id.signature;
   EXPECT_EQ(id.extensions.find("avx2") != std::string::npos, __builtin_cpu_supports("avx2") != 0)
       << id.extensions;
+}
+
+// The numeric family and model are the ones the signature names.
+TEST(Cpu, FamilyAndModelMatchTheSignature) {
+  const CpuIdentity id = cpuIdentity();
+  char sig[64];
+  std::snprintf(sig, sizeof sig, "family 0x%x model 0x%x ", id.family, id.model);
+  EXPECT_EQ(id.signature.rfind(sig, 0), 0u) << id.signature;
+}
+
+// Mirrored rows are streamed where that measured faster (Intel Xeon, AMD Zen 4) and stored
+// plainly where it measured slower (AMD Zen 5).
+TEST(Cpu, StreamedRowsWhereTheyMeasuredFaster) {
+  auto cpu = [](const char* vendor, unsigned family, unsigned model) {
+    CpuIdentity c;
+    c.vendor = vendor, c.family = family, c.model = model;
+    return c;
+  };
+  EXPECT_TRUE(streamsStridedRowsBest(cpu("GenuineIntel", 0x6, 0xcf)));   // Emerald Rapids
+  EXPECT_TRUE(streamsStridedRowsBest(cpu("AuthenticAMD", 0x19, 0x11)));  // Zen 4
+  EXPECT_FALSE(streamsStridedRowsBest(cpu("AuthenticAMD", 0x1a, 0x2)));  // Zen 5
 }
 
 TEST(Cpu, LevelNamesRoundTrip) {
