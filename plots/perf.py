@@ -268,8 +268,9 @@ def machines_section():
         return []
     return ["", "## Issue 16's targets on every machine measured", "",
             "One row per result file (the machines are not all one CPU: Zen 5 handles "
-            "subnormal numbers and plain strided stores well, an Intel Xeon does not; see "
-            "README, \"Two CPU traits\"). Pipeline ratios as above; % of dgemm is abi's counted "
+            "subnormal numbers and plain strided stores well, an Intel Xeon does not, and Zen 4 "
+            "and the Xeon write M⁻¹'s mirrored rows faster streamed; see README, \"Two CPU "
+            "traits\"). Pipeline ratios as above; % of dgemm is abi's counted "
             "operations per second over dgemm's, timed over the whole pipeline and over the "
             "sweeps alone (the parts table: configure and the writes excluded); the last column "
             "is abi forced to its avx2 level over the store, the nearest this run has to an "
