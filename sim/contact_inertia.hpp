@@ -53,7 +53,8 @@
 // propagation per branch node above it (12·k mul + 12·k add for k DOFs, 36 + 30 for a
 // composite), at most 2·(contact bodies) − 1 branch nodes, and ≤ 6 directions through any
 // pass-through body; then 6 mul + 6 add per entry of one triangle of A plus 36 mul + 30 add
-// per direction of the smaller side of each block for F Ω; a deferred block adds, per joint
+// per direction of the smaller side of each block for F Ω (formed once per node: a child's
+// deferred block and its pair block there share it); a deferred block adds, per joint
 // climbed, k² multiply-adds per direction and k per entry of its triangle. In all Θ(n + m²) with
 // the Θ(m²) term ≈ 6·m²/2 multiply-adds; the centipede's counts are in
 // paper/contact_inertia_counts.md.
@@ -101,10 +102,11 @@ struct ContactInertiaWorkspace {
   std::vector<Mat6<T>> Omega, Phi, Bpend;
   std::vector<char> phi_identity, need, pend;
   // Per direction: sorted position → input index and back (tables); F (row per direction, per
-  // call), F·Ω, Fᵀ·S scratch. The first `nbodies` of `bodies` are the last call's directions'
-  // bodies (sized to the capacity, so that a copied workspace keeps it); `tables`: whether the
-  // tables are theirs.
+  // call), F·Ω (row x at position x; `gof[x]`: the Ω it was formed with, this call), Fᵀ·S
+  // scratch. The first `nbodies` of `bodies` are the last call's directions' bodies (sized to
+  // the capacity, so that a copied workspace keeps it); `tables`: whether the tables are theirs.
   std::vector<int> perm, pos, bodies;
+  std::vector<const Mat6<T>*> gof;
   int nbodies = 0;
   bool tables = false, identity = true;
   RowsX6 F, G, Tk;
@@ -151,7 +153,7 @@ struct ContactInertiaWorkspace {
   // Capacity for m directions.
   void reserve(int m) {
     if (static_cast<int>(perm.size()) >= m) return;
-    perm.resize(m), pos.resize(m), bodies.resize(m);
+    perm.resize(m), pos.resize(m), bodies.resize(m), gof.resize(m);
     F.resize(m, 6);
     G.resize(m, 6);
     Tk.resize(m, 6);
@@ -323,15 +325,29 @@ void addJointTerm(const Articulated<T>& art, const ContactInertiaWorkspace<T>& w
   forJointSize(k, [&](auto K) { addJointTerm(K, art, ws, c, k, L, B); });
 }
 
+// G = F Ω for the rows [x0, x0 + L) (at their own positions in G), unless this call already
+// formed them with this Ω: a deferred block at a branch node and the node's pair block of the
+// same child range share them. Returns G's row x0.
+template <class T>
+T* formG(ContactInertiaWorkspace<T>& ws, const Mat6<T>& Om, int x0, int L) {
+  T* G = ws.G.data() + x0;
+  if (std::all_of(ws.gof.begin() + x0, ws.gof.begin() + x0 + L,
+                  [&](const Mat6<T>* o) { return o == &Om; }))
+    return G;
+  const int lf = static_cast<int>(ws.F.rows()), lg = static_cast<int>(ws.G.rows());
+  rowProduct<6, false>(ws.F.data() + x0, lf, Om.data(), 6, 1, L, 6, G, lg);
+  std::fill(ws.gof.begin() + x0, ws.gof.begin() + x0 + L, &Om);
+  return G;
+}
+
 // A deferred block finished at a: A(P(x), P(y)) = F_x Ω_a F_yᵀ + B(x, y) for the rows
 // [x0, x0 + L) (L ≤ kDirectMax), both triangles.
 template <class T>
 void deferredBlock(ContactInertiaWorkspace<T>& ws, const Mat6<T>& Om, int x0, int L,
                    const Mat6<T>& B, MatX<T>& A) {
   const T* F = ws.F.data() + x0;
-  T* G = ws.G.data();
+  const T* G = formG(ws, Om, x0, L);
   const int lf = static_cast<int>(ws.F.rows()), lg = static_cast<int>(ws.G.rows());
-  rowProduct<6, false>(F, lf, Om.data(), 6, 1, L, 6, G, lg);
   for (int y = 0; y < L; ++y)
     for (int x = y; x < L; ++x) {
       T v = B(x, y);
@@ -353,10 +369,9 @@ void pairBlock(ContactInertiaWorkspace<T>& ws, const Mat6<T>& Om, int x0, int nx
   // G = F_s Ω on the smaller side s; the block is F_big Gᵀ (big rows, small columns).
   if (ny > nx) std::swap(x0, y0), std::swap(nx, ny);
   const T* F = ws.F.data();
-  T* G = ws.G.data();
+  const T* G = formG(ws, Om, y0, ny);
   const int lf = static_cast<int>(ws.F.rows()), lg = static_cast<int>(ws.G.rows());
   const int la = static_cast<int>(A.rows());
-  rowProduct<6, false>(F + y0, lf, Om.data(), 6, 1, ny, 6, G, lg);
   // Rows [x, x + L) of F_X Gᵀ into C (column stride lc).
   auto block = [&](int x, int L, T* C, int lc) {
     rowProduct<6, false>(F + x, lf, G, 1, lg, L, ny, C, lc);
@@ -455,8 +470,9 @@ void contactInertia(const Model& model, const Kinematics<T>& kin, const Articula
     ws.tables = true;
   }
   const bool identity = ws.identity;
-  // F: a row per direction, in the sorted order.
+  // F: a row per direction, in the sorted order; no F Ω formed yet.
   for (int r = 0; r < m; ++r) ws.F.row(ws.pos[r]) = wrenches[r].transpose();
+  std::fill(ws.gof.begin(), ws.gof.begin() + m, nullptr);
 
   // (1) Ω top-down where needed.
   for (int i = 0; i < nb; ++i) {
