@@ -37,7 +37,7 @@ bool cpuRuns(Isa isa, std::string* why = nullptr);
 // full-line stores rather than plain ones. Chosen by microarchitecture from measurements
 // (abi's inverse, serial chain, one thread): streamed was 2.2× faster at n = 4096 and 1.3× at
 // n = 1024 on an Intel Xeon (Emerald Rapids), where each plain piece first reads its lines and
-// the column stride sends them all to one cache set, and 6–13 % faster at n = 1024 … 4096 on
+// the column stride sends them all to one cache set, and 6–28 % faster at n = 1024 … 4096 on
 // AMD Zen 4 (family 0x19); it was 25–35 % slower at n = 4096 on AMD Zen 5 (family 0x1a), the
 // one core that stores them plainly (with the AMD families after it). MINV_ABI_ROWS=stream|plain
 // forces either (std::invalid_argument for another value); read at each call (abi reads it in

@@ -362,7 +362,7 @@ inline void abiForwardBody(const Kinematics<T>& kin, const Articulated<T>& art, 
 // Used for the column strips above each block's diagonal (whole 8-row lines): on Zen 5 their
 // writes took 16–25 % less time at n = 1024 and 2048 and the same at 4096. The rows left of
 // the diagonal (two lines per column, one column apart) are streamed where the CPU gains by it
-// (core/cpu.hpp, streamStridedRows: 2.2× faster at n = 4096 on an Intel Xeon, 6–13 % on Zen 4)
+// (core/cpu.hpp, streamStridedRows: 2.2× faster at n = 4096 on an Intel Xeon, 6–28 % on Zen 4)
 // and stored plainly where it does not (25–35 % slower on Zen 5).
 template <class T>
 inline void abiStoreLine(T* dst, const T* src) {
