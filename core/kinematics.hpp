@@ -35,15 +35,22 @@ using Mat6N = Eigen::Matrix<T, 6, Eigen::Dynamic>;
 // Where the frame of a Kinematics object has its origin (its axes are always the world's).
 enum class Origin { World, EachRoot };
 
-// Per body: the revolute joint's placement rotation P split by Rodrigues' formula, so that
-//   P·exp(θ ã) = Pa + cos θ·Pc + sin θ·Ps,  Pa = P a aᵀ, Pc = P (1 − a aᵀ), Ps = P ã,
-// constant for the tree (zero for other joints); built with the Kinematics object.
+// Per body, the tree's constants that its kinematics reads, as 4-entry columns (the fourth entry
+// zero) that Three::load4 takes whole: the revolute joint's placement rotation P split by
+// Rodrigues' formula,
+//   P·exp(θ ã) = Pa + cos θ·Pc + sin θ·Ps,  Pa = P a aᵀ, Pc = P (1 − a aᵀ), Ps = P ã
+// (zero for other joints), P itself, the joint's placement origin and axis, and the body's
+// centre of mass and rotational inertia Ī about it; built with the Kinematics object.
 template <class T>
-struct RevoluteSplit {
-  Mat3<T> Pa = Mat3<T>::Zero(), Pc = Mat3<T>::Zero(), Ps = Mat3<T>::Zero();
+struct BodyColumns {
+  using Col = Eigen::Matrix<T, 4, 1>;
+  using Cols = Eigen::Matrix<T, 4, 3>;
+  Cols Pa = Cols::Zero(), Pc = Cols::Zero(), Ps = Cols::Zero(), P = Cols::Zero();
+  Cols inertia = Cols::Zero();
+  Col origin = Col::Zero(), axis = Col::Zero(), com = Col::Zero();
 };
 
-// Built for one model (its revolute splits are that model's): not to be reused for another.
+// Built for one model (its constants are that model's): not to be reused for another.
 template <class T>
 struct Kinematics {
   std::vector<Pose<T>> X;  // body i's pose in the world
@@ -51,7 +58,7 @@ struct Kinematics {
   std::vector<Mat6<T>> I;  // body spatial inertias in world coordinates
   Origin origin;           // World, or each tree's root joint
   VecX<T> sinq, cosq;      // on doubles, sin and cos of each coordinate of q (jointSinCos)
-  std::vector<RevoluteSplit<T>> split;  // per body, for revolute joints
+  std::vector<BodyColumns<T>> cols;  // per body
 
   explicit Kinematics(const Model& m, Origin o = Origin::World)
       : X(m.nb()),
@@ -60,14 +67,22 @@ struct Kinematics {
         origin(o),
         sinq(VecX<T>::Zero(std::is_same_v<T, double> ? m.nq() : 0)),
         cosq(VecX<T>::Zero(std::is_same_v<T, double> ? m.nq() : 0)),
-        split(m.nb()) {
+        cols(m.nb()) {
     for (int i = 0; i < m.nb(); ++i) {
       const Joint& j = m.joint(i);
+      const Body& b = m.body(i);
+      BodyColumns<T>& c = cols[i];
+      const Eigen::Matrix3d P = j.placement.R;
+      c.P.template topRows<3>() = P.cast<T>();
+      c.origin.template head<3>() = j.placement.p.cast<T>();
+      c.axis.template head<3>() = j.axis.cast<T>();
+      c.com.template head<3>() = b.com.cast<T>();
+      c.inertia.template topRows<3>() = b.inertia.cast<T>();
       if (j.type != JointType::Revolute) continue;
-      const Eigen::Matrix3d P = j.placement.R, aa = j.axis * j.axis.transpose();
-      split[i].Pa = (P * aa).cast<T>();
-      split[i].Pc = (P * (Eigen::Matrix3d::Identity() - aa)).cast<T>();
-      split[i].Ps = (P * skew<double>(j.axis)).cast<T>();
+      const Eigen::Matrix3d aa = j.axis * j.axis.transpose();
+      c.Pa.template topRows<3>() = (P * aa).cast<T>();
+      c.Pc.template topRows<3>() = (P * (Eigen::Matrix3d::Identity() - aa)).cast<T>();
+      c.Ps.template topRows<3>() = (P * skew<double>(j.axis)).cast<T>();
     }
   }
 };
@@ -101,29 +116,38 @@ void jointSinCos(const VecX<T>& q, Kinematics<T>& kin) {
   }
 }
 
-// Poses below are plain arrays: a rotation R as 9 entries, column-major (Eigen's order), a
-// translation p as 3. The per-body steps are scalar code on them, so that a chain keeps its
-// poses in registers; the results go to kin (Eigen) once.
+// Poses below are columns (Three, core/spatial.hpp): a rotation R as its 3 columns, a
+// translation p as one. The per-body steps are column operations on them, so that a chain keeps
+// its poses in registers; the results go to kin (Eigen) once.
 
-// C = A·B (3×3).
-template <class T, class U>
-MINV_INLINE void mul33(const T* A, const U* B, T* C) {
-  for (int c = 0; c < 3; ++c)
-    for (int r = 0; r < 3; ++r)
-      C[r + 3 * c] = A[r] * T(B[3 * c]) + A[r + 3] * T(B[3 * c + 1]) + A[r + 6] * T(B[3 * c + 2]);
+// The 4-entry column k of a BodyColumns matrix.
+template <class T>
+MINV_INLINE Three<T> col4(const Eigen::Matrix<T, 4, 3>& M, int k) {
+  return Three<T>::load4(M.data() + 4 * k);
 }
 
-// y = x + A·b (3×3, 3).
-template <class T, class U>
-MINV_INLINE void mulAdd3(const T* x, const T* A, const U* b, T* y) {
-  for (int r = 0; r < 3; ++r)
-    y[r] = x[r] + A[r] * T(b[0]) + A[r + 3] * T(b[1]) + A[r + 6] * T(b[2]);
+// y = x + A·b: ((x + A₀b₀) + A₁b₁) + A₂b₂ (3×3 as columns, 3).
+template <class T, class B>
+MINV_INLINE Three<T> mulAdd3(const Three<T>& x, const Three<T>* A, const B& b) {
+  return x + A[0] * T(b[0]) + A[1] * T(b[1]) + A[2] * T(b[2]);
 }
 
-// y = A·b (3×3, 3).
-template <class T, class U>
-MINV_INLINE void mul3(const T* A, const U* b, T* y) {
-  for (int r = 0; r < 3; ++r) y[r] = A[r] * T(b[0]) + A[r + 3] * T(b[1]) + A[r + 6] * T(b[2]);
+// y = A·b: (A₀b₀ + A₁b₁) + A₂b₂.
+template <class T, class B>
+MINV_INLINE Three<T> mul3(const Three<T>* A, const B& b) {
+  return A[0] * T(b[0]) + A[1] * T(b[1]) + A[2] * T(b[2]);
+}
+
+// C = A·B (3×3 as columns): column k of C is A·(column k of B).
+template <class T>
+MINV_INLINE void mul33(const Three<T>* A, const Three<T>* B, Three<T>* C) {
+  for (int k = 0; k < 3; ++k) C[k] = mul3(A, B[k]);
+}
+
+// A rotation matrix as columns.
+template <class T>
+MINV_INLINE void columns(const Mat3<T>& R, Three<T>* C) {
+  for (int k = 0; k < 3; ++k) C[k] = Three<T>::load(R.data() + 3 * k);
 }
 
 // The joint's pose in its parent's frame, placement · X_J(q_i), into (L, l); a revolute
@@ -131,15 +155,14 @@ MINV_INLINE void mul3(const T* A, const U* b, T* y) {
 // placement.
 template <class T>
 MINV_INLINE void localPose(const Model& model, const VecX<T>& q, const Kinematics<T>& kin, int i,
-                           T* L, T* l) {
+                           Three<T>* L, Three<T>& l) {
   const Joint& j = model.joint(i);
+  const BodyColumns<T>& bc = kin.cols[i];
   const int o = model.qIdx(i);
-  const double* P = j.placement.R.data();
-  const double* pp = j.placement.p.data();
+  const Three<T> origin = Three<T>::load4(bc.origin.data());
   switch (j.type) {
     case JointType::Revolute: {
       // P·exp(θ ã) = Pa + cos θ·Pc + sin θ·Ps; the joint does not move the origin.
-      const RevoluteSplit<T>& r = kin.split[i];
       using std::cos;
       using std::sin;
       T c, s;
@@ -147,32 +170,30 @@ MINV_INLINE void localPose(const Model& model, const VecX<T>& q, const Kinematic
         c = kin.cosq(o), s = kin.sinq(o);
       else
         c = cos(q(o)), s = sin(q(o));
-      for (int k = 0; k < 9; ++k) L[k] = r.Pa.data()[k] + c * r.Pc.data()[k] + s * r.Ps.data()[k];
-      for (int k = 0; k < 3; ++k) l[k] = T(pp[k]);
+      for (int k = 0; k < 3; ++k) L[k] = col4(bc.Pa, k) + col4(bc.Pc, k) * c + col4(bc.Ps, k) * s;
+      l = origin;
       return;
     }
     case JointType::Prismatic: {
       // The rotation is the placement's; the origin moves by q along P·a.
-      const T d[3] = {T(j.axis(0)) * q(o), T(j.axis(1)) * q(o), T(j.axis(2)) * q(o)};
-      for (int k = 0; k < 9; ++k) L[k] = T(P[k]);
-      const T p0[3] = {T(pp[0]), T(pp[1]), T(pp[2])};
-      mulAdd3(p0, L, d, l);
+      const T d[3] = {bc.axis(0) * q(o), bc.axis(1) * q(o), bc.axis(2) * q(o)};
+      for (int k = 0; k < 3; ++k) L[k] = col4(bc.P, k);
+      l = mulAdd3(origin, L, d);
       return;
     }
     case JointType::Spherical: {
       const Mat3<T> J = quatToRotation<T>(q(o), q(o + 1), q(o + 2), q(o + 3));
-      const Mat3<T> Pt = j.placement.R.cast<T>();
-      mul33(Pt.data(), J.data(), L);
-      for (int k = 0; k < 3; ++k) l[k] = T(pp[k]);
+      const Three<T> P[3] = {col4(bc.P, 0), col4(bc.P, 1), col4(bc.P, 2)};
+      for (int k = 0; k < 3; ++k) L[k] = mul3(P, J.col(k));
+      l = origin;
       return;
     }
     case JointType::Floating:
     default: {
       const Mat3<T> J = quatToRotation<T>(q(o + 3), q(o + 4), q(o + 5), q(o + 6));
-      const Mat3<T> Pt = j.placement.R.cast<T>();
-      mul33(Pt.data(), J.data(), L);
-      const T p0[3] = {T(pp[0]), T(pp[1]), T(pp[2])};
-      mulAdd3(p0, Pt.data(), q.data() + o, l);
+      const Three<T> P[3] = {col4(bc.P, 0), col4(bc.P, 1), col4(bc.P, 2)};
+      for (int k = 0; k < 3; ++k) L[k] = mul3(P, J.col(k));
+      l = mulAdd3(origin, P, q.data() + o);
       return;
     }
   }
@@ -181,12 +202,12 @@ MINV_INLINE void localPose(const Model& model, const VecX<T>& q, const Kinematic
 // S_i from body i's world pose (R, p): the joint's body-frame subspace in world coordinates,
 // [R e; p × R e] for a rotation axis e, [0; R e] for a translation.
 template <class T>
-MINV_INLINE void motionSubspace(const Model& model, const T* R, const T* p, Kinematics<T>& kin,
-                                int i) {
+MINV_INLINE void motionSubspace(const Model& model, const Three<T>* R, const Three<T>& p,
+                                Kinematics<T>& kin, int i) {
   const Joint& j = model.joint(i);
   T* S = kin.S.col(model.vIdx(i)).data();
   // One column of S from a world direction w: a rotation about it through p, or a translation.
-  auto column = [&](const T* w, bool rotation, T* s) {
+  auto column = [&](const Three<T>& w, bool rotation, T* s) {
     if (!rotation) {
       s[0] = s[1] = s[2] = T(0);
       s[3] = w[0], s[4] = w[1], s[5] = w[2];
@@ -197,20 +218,18 @@ MINV_INLINE void motionSubspace(const Model& model, const T* R, const T* p, Kine
     s[4] = p[2] * w[0] - p[0] * w[2];
     s[5] = p[0] * w[1] - p[1] * w[0];
   };
-  T w[3];
   switch (j.type) {
     case JointType::Revolute:
     case JointType::Prismatic:
-      mul3(R, j.axis.data(), w);
-      column(w, j.type == JointType::Revolute, S);
+      column(mul3(R, kin.cols[i].axis), j.type == JointType::Revolute, S);
       break;
     case JointType::Spherical:
-      for (int c = 0; c < 3; ++c) column(R + 3 * c, true, S + 6 * c);
+      for (int c = 0; c < 3; ++c) column(R[c], true, S + 6 * c);
       break;
     case JointType::Floating:
       for (int c = 0; c < 3; ++c) {
-        column(R + 3 * c, true, S + 6 * c);
-        column(R + 3 * c, false, S + 6 * (3 + c));
+        column(R[c], true, S + 6 * c);
+        column(R[c], false, S + 6 * (3 + c));
       }
       break;
   }
@@ -219,23 +238,20 @@ MINV_INLINE void motionSubspace(const Model& model, const T* R, const T* p, Kine
 // I_i about the world origin from body i's world pose (R, p), as mcI (core/spatial.hpp) with
 // m, c = p + R·c_body and R Ī Rᵀ: R Ī, then one triangle of (R Ī) Rᵀ, the only one mcI reads.
 template <class T>
-MINV_INLINE void worldInertia(const Model& model, const T* R, const T* p, Kinematics<T>& kin,
-                              int i) {
-  const Body& b = model.body(i);
-  T c[3], RI[9], Ic[9];
-  mulAdd3(p, R, b.com.data(), c);
-  mul33(R, b.inertia.data(), RI);
-  for (int j = 0; j < 3; ++j)
-    for (int r = j; r < 3; ++r)
-      Ic[r + 3 * j] = RI[r] * R[j] + RI[r + 3] * R[j + 3] + RI[r + 6] * R[j + 6];
-  mcI<T>(T(b.mass), c, Ic, kin.I[i].data());
-}
-
-// ⁰X_i = ⁰X_λ(i) · (L, l) for a body with a parent: R = R_λ L, p = p_λ + R_λ l.
-template <class T>
-MINV_INLINE void composePose(const T* Rp, const T* pp, const T* L, const T* l, T* R, T* p) {
-  mul33(Rp, L, R);
-  mulAdd3(pp, Rp, l, p);
+MINV_INLINE void worldInertia(const Model& model, const Three<T>* R, const Three<T>& p,
+                              Kinematics<T>& kin, int i) {
+  const BodyColumns<T>& bc = kin.cols[i];
+  const Three<T> c = mulAdd3(p, R, bc.com);
+  Three<T> RI[3];
+  for (int k = 0; k < 3; ++k) RI[k] = mul3(R, col4(bc.inertia, k));
+  // (R Ī) Rᵀ: column j is R Ī · (row j of R), its entries j … 2
+  T Ic[9], cc[3];
+  for (int j = 0; j < 3; ++j) {
+    const T Rj[3] = {R[0][j], R[1][j], R[2][j]};
+    Three<T>::lowerColumn(j, RI, Rj).store(Ic + 3 * j);
+  }
+  c.store(cc);
+  mcI<T>(T(model.body(i).mass), cc, Ic, kin.I[i].data());
 }
 
 // Stages "spatial axes" (poses ⁰X_i and world-frame motion subspaces S_i) and "isolated
@@ -250,24 +266,30 @@ void computeKinematics(const Model& model, const VecX<T>& q, Kinematics<T>& kin,
   const bool each_root = kin.origin == Origin::EachRoot;
   // sin and cos of the joint angles, all at once
   jointSinCos(q, kin);
-  T R[9] = {}, p[3] = {};  // ⁰X of the body just done
+  Three<T> R[3] = {Three<T>::zero(), Three<T>::zero(), Three<T>::zero()};  // ⁰X of the body
+  Three<T> p = Three<T>::zero();                                           // just done
   for (int i = 0; i < nb; ++i) {
     const int parent = model.parent(i);
     // the joint's pose in its parent's frame
-    T L[9], l[3];
+    Three<T> L[3], l;
     localPose(model, q, kin, i, L, l);
-    // ⁰X_i = ⁰X_λ(i) · (L, l); along a chain the parent's pose is the one just done
-    T Ri[9], pi[3];
+    // ⁰X_i = ⁰X_λ(i) · (L, l): R = R_λ L, p = p_λ + R_λ l; along a chain the parent's pose is
+    // the one just done
+    Three<T> Ri[3], pi;
     if (parent == i - 1 && parent >= 0) {
-      composePose(R, p, L, l, Ri, pi);
+      mul33(R, L, Ri);
+      pi = mulAdd3(p, R, l);
     } else if (parent >= 0) {
-      composePose(kin.X[parent].R.data(), kin.X[parent].p.data(), L, l, Ri, pi);
+      Three<T> Rp[3];
+      columns(kin.X[parent].R, Rp);
+      mul33(Rp, L, Ri);
+      pi = mulAdd3(Three<T>::load(kin.X[parent].p.data()), Rp, l);
     } else {
-      for (int k = 0; k < 9; ++k) Ri[k] = L[k];
-      for (int k = 0; k < 3; ++k) pi[k] = each_root ? T(0) : l[k];
+      for (int k = 0; k < 3; ++k) Ri[k] = L[k];
+      pi = each_root ? Three<T>::zero() : l;
     }
-    for (int k = 0; k < 9; ++k) R[k] = Ri[k], kin.X[i].R.data()[k] = Ri[k];
-    for (int k = 0; k < 3; ++k) p[k] = pi[k], kin.X[i].p.data()[k] = pi[k];
+    for (int k = 0; k < 3; ++k) R[k] = Ri[k], Ri[k].store(kin.X[i].R.data() + 3 * k);
+    p = pi, pi.store(kin.X[i].p.data());
     // S_i
     motionSubspace(model, Ri, pi, kin, i);
     mark("spatial axes");
