@@ -98,6 +98,27 @@ TEST(Flops, NaiveOnChainsIsExactlyCubic) {
   expectExactPolynomial("naive", 3);
 }
 
+// The kinematics' counts per revolute body, closed form (the two stages of Tables 1–3 before the
+// articulated pass): a non-root body's pose P·exp(θ ã) = Pa + cos θ Pc + sin θ Ps (18 mul, 18
+// add), ⁰X = ⁰X_λ · (L, l) (36, 27), its axis R a and p × R a (15, 9); the root skips the
+// composition. Its inertia: c = p + R c_b (9, 9), R Ī (27, 18), the lower triangle of (R Ī) Rᵀ
+// (18, 12), mcI (12, 11). Whatever the column type the kernel runs on doubles (core/spatial.hpp,
+// Three), the counting scalar must do exactly these operations.
+TEST(Flops, KinematicsPerRevoluteBodyIsClosedForm) {
+  for (const int n : {1, 2, 7, 33}) {
+    const Model model = randomTree({Topology::Serial, n, 3, false, JointSet::Revolute});
+    const std::vector<StageCount> stages = countSolver("abi", model, randomConfiguration(model, 5));
+    const FlopCounts axes = stage(stages, "spatial axes");
+    const FlopCounts inertias = stage(stages, "isolated inertias");
+    const std::uint64_t N = n;
+    EXPECT_EQ(axes.mul, 69 * (N - 1) + 33) << n;
+    EXPECT_EQ(axes.add, 54 * (N - 1) + 27) << n;
+    EXPECT_EQ(axes.trig, 2 * N) << n;
+    EXPECT_EQ(inertias.mul, 66 * N) << n;
+    EXPECT_EQ(inertias.add, 50 * N) << n;
+  }
+}
+
 TEST(Flops, CountedGivesTheSameNumbersAsDouble) {
   const Model model = randomTree({Topology::Branched, 30, 4, true, JointSet::Mixed});
   const Eigen::VectorXd q = randomConfiguration(model, 4);
