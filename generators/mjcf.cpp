@@ -8,6 +8,7 @@
 #include <iostream>
 #include <mutex>
 #include <stdexcept>
+#include <string_view>
 
 #include "core/spatial.hpp"
 
@@ -157,7 +158,25 @@ std::mutex& mujocoLoadMutex() {
   return m;
 }
 
+// Set on a thread while it runs mj_loadXML (LoadingXml).
+thread_local bool loading_xml = false;
+struct LoadingXml {
+  LoadingXml() { loading_xml = true; }
+  ~LoadingXml() { loading_xml = false; }
+  LoadingXml(const LoadingXml&) = delete;
+  LoadingXml& operator=(const LoadingXml&) = delete;
+};
+
+// mju_error as a C++ exception, with one exception inside mj_loadXML. A file attribute that
+// names no file (<include file=""/>) makes MuJoCo 2.2.2's virtual file system raise "Empty
+// filename in VFS"; an exception thrown from there unwinds through the XML parser, whose
+// objects are then never freed (8592 bytes in 5 allocations, the fuzzer's finding
+// tests/fuzz/regressions/mjcf/leak-9a3cd708…). When the handler returns instead, the lookup
+// fails as for a missing file and mj_loadXML reports it ("Include error … FILE_NOT_FOUND") and
+// cleans up (measured with a program that calls only mj_loadXML: no leak). Every other error
+// still throws: MuJoCo may not go on safely after it.
 void throwingError(const char* msg) {
+  if (loading_xml && std::string_view(msg) == "Empty filename in VFS") return;
   throw std::runtime_error(std::string("mujoco: ") + msg);
 }
 void printingWarning(const char* msg) {
@@ -236,6 +255,7 @@ MjModelPtr compileMjcfFiles(const std::vector<MjcfFile>& files, const std::strin
   mjModel* m = nullptr;
   {
     std::lock_guard<std::mutex> lock(mujocoLoadMutex());
+    const LoadingXml loading;
     m = mj_loadXML(files[0].name.c_str(), vfs.get(), error, sizeof error);
     mj_freeLastXML();
   }
@@ -255,6 +275,7 @@ MjModelPtr compileMujocoPath(const std::string& path) {
   mjModel* m = nullptr;
   {
     std::lock_guard<std::mutex> lock(mujocoLoadMutex());
+    const LoadingXml loading;
     m = mj_loadXML(path.c_str(), nullptr, error, sizeof error);
     mj_freeLastXML();
   }
