@@ -159,6 +159,15 @@ void checkBody(int i, const Body& b) {
     throw ModelError(at + ": rotational inertia breaks the triangle inequality (principal " +
                      "moments " + formatNumber(e(0)) + ", " + formatNumber(e(1)) + ", " +
                      formatNumber(e(2)) + ")");
+  // A body that is a point mass to double precision: about its joint its inertia m |c|² + Ī
+  // then has directions (rotations about the centre of mass) that weigh below m |c|²'s
+  // rounding, and M, which joint motions of the body project onto, loses its positive
+  // definiteness (CI's JSON fuzzer: a 1e30 kg knee with Ī ≈ 4e-5 at 5 cm, LLT fails).
+  if (const double mc2 = b.mass * b.com.squaredNorm(); e(0) < kMinInertiaRatio * mc2)
+    throw ModelError(at + ": rotational inertia is negligible against m|c|² (smallest principal " +
+                     "moment " + formatNumber(e(0)) + ", m|c|² = " + formatNumber(mc2) +
+                     "): a point mass to double precision; give it a rotational inertia of at " +
+                     "least " + formatNumber(kMinInertiaRatio) + "·m|c|²");
 }
 
 void checkJoint(int i, Joint& j, int parent) {

@@ -46,6 +46,10 @@ inline constexpr double kMaxPhysicalMagnitude = 1e30;
 // root joint (Origin::EachRoot, core/kinematics.hpp), so where a tree stands costs nothing; the
 // limit bounds the lengths within a tree, and the simulator's world-frame kinematics.
 inline constexpr double kMaxLength = 1e4;
+// The smallest ratio of a body's smallest principal moment of inertia (about its centre of
+// mass) to m|c|², its mass times the squared distance of the centre of mass from the joint: a
+// body below it is a point mass to double precision, and M can lose its positive definiteness.
+inline constexpr double kMinInertiaRatio = 1e-12;
 
 enum class JointType { Revolute, Prismatic, Spherical, Floating };
 
@@ -79,7 +83,8 @@ class Model {
  public:
   // Validates and builds; throws ModelError naming the first problem found: a parent after its
   // child, a non-positive or out-of-range mass, an inertia that is not symmetric positive
-  // definite or breaks the triangle inequality, a zero or non-finite axis, a placement that is
+  // definite or breaks the triangle inequality or is negligible against m|c|²
+  // (kMinInertiaRatio), a zero or non-finite axis, a placement that is
   // not a rigid transform, a mass or inertia beyond kMaxPhysicalMagnitude, a length beyond
   // kMaxLength, a name that is not valid UTF-8, two bodies or two joints with the same
   // (non-empty) name.

@@ -88,6 +88,30 @@ TEST(ModelValidation, PhysicalRangeIsCheckedAtLoad) {
       << f.error();
 }
 
+// A body that is a point mass to double precision (its smallest principal moment below
+// kMinInertiaRatio · m|c|²) is refused, naming the body and both numbers; just above the ratio it
+// loads and its M factorises. The fuzzer's case: 1e30 kg, Ī ≈ 4e-5, |c| = 5 cm.
+TEST(ModelValidation, PointMassBodyIsRefused) {
+  Chain c;
+  c.bodies[2].mass = 1e30;
+  c.bodies[2].com = Eigen::Vector3d(0.05, 0, 0);
+  c.bodies[2].inertia = Eigen::Vector3d(4e-5, 4e-5, 4e-5).asDiagonal();
+  EXPECT_NE(c.error().find("body 2 ('b2'): rotational inertia is negligible against m|c|²"),
+            std::string::npos)
+      << c.error();
+  Chain d;
+  d.bodies[2].mass = 1e30;
+  d.bodies[2].com = Eigen::Vector3d(0.05, 0, 0);
+  d.bodies[2].inertia = Eigen::Matrix3d::Identity() * (2 * kMinInertiaRatio * 1e30 * 0.0025);
+  ASSERT_EQ(d.error(), "");
+  const Model md = Model::create(d.parent, d.joints, d.bodies);
+  EXPECT_EQ(Eigen::LLT<Eigen::MatrixXd>(massMatrix(md, md.neutral())).info(), Eigen::Success);
+  Chain e;
+  e.bodies[1].inertia *= 1e-9;  // small, but far above the ratio (m = 1, |c| = 0)
+  e.bodies[1].com = Eigen::Vector3d(0.5, 0, 0);
+  EXPECT_EQ(e.error(), "");
+}
+
 // Names must be valid UTF-8 (they travel as UTF-8 through JSON and HDF5): a stray byte, an
 // overlong form and a surrogate are refused; accents and Greek letters are fine.
 TEST(ModelValidation, NamesAreUtf8) {
