@@ -117,11 +117,11 @@ struct Six<double> {
 // (core/kinematics.hpp), in the same manner as Six: on any scalar but double, three scalars and
 // scalar operations, so that the counting scalar counts exactly what the kernel does; on doubles
 // at AVX and above, one 4-lane SIMD value (the fourth lane zero), the same operations lane by
-// lane: a 3×3 product is then 9 vector multiply-adds, not 27 scalar ones (computeKinematics on
-// a 16-link serial chain, one Zen 4 core: 389 -> 278 ns compiled for AVX-512, 596-610 -> 363-383
-// ns for AVX2, and unchanged at the baseline level, 641 against 648 ns).
-// Below AVX the 4-lane value is lowered through memory (5.6× slower), so there it is three
-// doubles.
+// lane: a 3×3 product is then 9 vector multiply-adds, not 27 scalar ones (abi's configure on a
+// Zen 4 core, `bench_abi --benchmark_filter='parts/serial/configure/'`, builds before and after
+// alternated: 771-773 -> 645-659 ns at n = 16, 1547-1564 -> 1288-1296 ns at n = 32). Below AVX
+// the 4-lane value is lowered through memory (5.6× slower in a standalone build), so there it is
+// three doubles (abi-baseline at n = 16: 2208 -> 2277-2281 ns, +3 %).
 // load4 reads a 4-entry column whose fourth entry is zero (BodyColumns, core/kinematics.hpp).
 template <class T>
 struct Three {

@@ -107,7 +107,7 @@ TEST(ModelValidation, PointMassBodyIsRefused) {
   const Model md = Model::create(d.parent, d.joints, d.bodies);
   EXPECT_EQ(Eigen::LLT<Eigen::MatrixXd>(massMatrix(md, md.neutral())).info(), Eigen::Success);
   Chain e;
-  e.bodies[1].inertia *= 1e-9;  // small, but far above the ratio (m = 1, |c| = 0)
+  e.bodies[1].inertia *= 1e-9;  // small, but far above the ratio (m = 1, |c|² = 0.25: 4e-9)
   e.bodies[1].com = Eigen::Vector3d(0.5, 0, 0);
   EXPECT_EQ(e.error(), "");
 }
