@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "sim/clones.hpp"
+#include "solvers/abi_variants.hpp"
 
 namespace minv::sim {
 
@@ -30,19 +31,6 @@ MINV_CLONES_FLAT void contactInertiaWide(const Model& model, const Kinematics<do
   contactInertia<double>(model, kin, art, bodies, wrenches, ws, A, threads);
 }
 
-// Kinematics and articulated-body inertias, compiled the same way: scalar 3×3 and 6×6
-// arithmetic per body that FMA and wider registers speed up. On one thread whatever the
-// simulator's threads (≈ 25 ns per body: splitting it never paid, and a split kinematics ran
-// in the portable build, so the last bits then depended on the thread count). Every clone lays
-// the articulated pass's columns out as the portable build does (core/spatial.hpp, Six): a
-// target("arch=x86-64-v4") copy with AVX-512's 8-lane columns was tried and was no faster here
-// (S = 5 dynamics 2.71 -> 2.77 us on a Zen 5 core).
-MINV_CLONES_FLAT void articulatedWide(const Model& model, const Eigen::VectorXd& q,
-                                      Kinematics<double>& kin, Articulated<double>& art) {
-  computeKinematics<double>(model, q, kin);
-  articulatedInertias<double>(model, kin, art);
-}
-
 }  // namespace
 
 std::vector<std::string> simulationPaths() {
@@ -62,6 +50,9 @@ Simulator::Simulator(const Model& model, std::vector<ContactPoint> points, SimOp
       abi_(model),
       cia_(model, 3 * static_cast<int>(points_.size())) {
   if (o_.threads < 1) throw std::invalid_argument("threads must be at least 1");
+  // Kinematics and articulated inertias: abi's own pass, compiled for the level abi uses
+  // (solvers/abi_variants.hpp: this CPU's highest, or MINV_ISA's).
+  articulate_ = abiVariant(abiLevel()).articulate;
   if (o_.path != kTestImpulsePath && o_.path != kContactInertiaPath) {
     solver_ = makeSolver(o_.path);  // throws for an unknown name
     solver_->setThreads(o_.threads);
@@ -112,7 +103,7 @@ void Simulator::step() {
   Clock::time_point t0 = Clock::now();
 
   // dynamics: v* = v + h·ABA(q, v, τ), and the bodies' velocities V* (ABA's forward pass).
-  articulatedWide(model_, q_, kin_, art_);
+  articulate_(model_, q_, kin_, art_);
   abaStep(model_, kin_, art_, v_, tau_, o_.gravity, h, aba_, qdd_, vstar_);
   st.dynamics = since(t0);
 

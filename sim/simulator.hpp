@@ -129,6 +129,9 @@ class Simulator {
   Controller controller_;
   Kinematics<double> kin_;
   Articulated<double> art_;
+  // Fills kin_ and art_ from q_ on one thread (abi's module of the level in use).
+  void (*articulate_)(const Model&, const Eigen::VectorXd&, Kinematics<double>&,
+                      Articulated<double>&) = nullptr;
   AbaWorkspace aba_;
   ImpulseWorkspace abi_;
   std::vector<ImpulseWorkspace> column_ws_;  // test impulses: one workspace per thread
