@@ -33,7 +33,14 @@
 //                solver's, whatever the start). A second-difference term was tried (one inner
 //                pass, the median over `minv simulate sweep --segments 5 --steps 1000`): with
 //                weight ½ it saved a sweep on some steps but not the median one (3), with
-//                weight 1 (quadratic extrapolation) the median took 23.
+//                weight 1 (quadratic extrapolation) the median took 23. That failure is the
+//                weights' freedom, not the extrapolation: β is not unique (W has a null space)
+//                and the solves' β wander along it. Kept in their minimum-norm form (moved
+//                along the null space toward W⁺λ while ≥ 0) and extrapolated by the
+//                least-squares quadratic through five steps, 77 % of the S = 5 solves
+//                converged in one sweep (mean 1.45 sweeps, was 2.54); but the solve stage went
+//                1.62 -> 1.46-1.48 us at S = 5, 7.8 -> 6.6 us at S = 20 and 24.0 -> 25.5-26.2 us
+//                at S = 40 (medians, Zen 4, builds alternated), so it was not kept.
 //   update       v⁺ = v* + M⁻¹Jλ (solver paths: X λ; test-impulse and contact-inertia: one
 //                impulse sweep), then
 //                q ← q ⊕ h v⁺ (sim/dynamics.hpp). This is semi-implicit ("symplectic")
