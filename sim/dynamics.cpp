@@ -57,9 +57,10 @@ void bodyVelocities(const Model& model, const Kinematics<double>& kin, const Eig
 // Each pass is a chain of dependent per-body steps along the tree, not arithmetic: on a Zen 4
 // core (S = 5 centipede) two rewrites were measured and dropped. The passes on core's Six
 // columns, compiled for AVX-512 in a translation unit of their own, took 1.08-1.41 us against
-// 0.98-1.18 for this code in the same probe (pass 1 equal, pass 2 +110-150 ns). The cross products
-// as scalars stored in aligned pairs took pass 1 from 421 to 341 ns alone, but the step's
-// dynamics stage went 2.92-2.94 -> 2.97-2.98 us (builds alternated, 3 rounds).
+// 0.98-1.18 for this code in the same standalone probe (pass 1 equal, pass 2 +110-150 ns). The
+// cross products as scalars stored in aligned pairs took pass 1 from 421 to 341 ns in a
+// standalone probe, but the step's dynamics stage went 2.92-2.94 -> 2.97-2.98 us (builds
+// alternated, 3 rounds).
 namespace {
 MINV_CLONES_FLAT void abaPasses(const Model& model, const Kinematics<double>& kin,
                                 const Articulated<double>& art, const Eigen::VectorXd& v,
