@@ -71,8 +71,7 @@ Simulator::Simulator(const Model& model, std::vector<ContactPoint> points, SimOp
   const int nv = model_.nv();
   q_ = model_.neutral();
   v_ = tau_ = qdd_ = vstar_ = dv_ = scratch_ = Eigen::VectorXd::Zero(nv);
-  warm_.setZero(o_.friction_dirs, points_.size());
-  warm_prev_.setZero(o_.friction_dirs, points_.size());
+  warm_.setZero(o_.friction_dirs, kWarmHistory * points_.size());
   warm_steps_.assign(points_.size(), 0);
   if (o_.path == kTestImpulsePath && o_.threads > 1) {
     column_ws_.assign(o_.threads, ImpulseWorkspace(model_));
@@ -185,26 +184,51 @@ void Simulator::step() {
     }
     st.matrices = since(t0);
 
-    // solve: maximum dissipation, warm started from the weights of the last two steps.
+    // solve: maximum dissipation, warm started by extrapolating the weights of earlier steps.
     prob_.v0 = Eigen::Map<const Eigen::VectorXd>(vel.data(), m);
     prob_.b = Eigen::Map<const Eigen::VectorXd>(bias.data(), nc);
     prob_.mu = o_.mu;
     prob_.k = k;
     warm_beta_.resize(k * nc);
+    const int P = static_cast<int>(points_.size());
+    // β of point a, d steps back (d = 1: the last step), in the ring of kWarmHistory steps.
+    auto past = [&](int a, int d) {
+      const int slot = (warm_head_ - d + 1 + kWarmHistory) % kWarmHistory;
+      return warm_.col(slot * P + a).data();
+    };
     for (int c = 0; c < nc; ++c) {
       const int a = active_[c], steps = warm_steps_[a];
-      const double *w = warm_.col(a).data(), *wp = warm_prev_.col(a).data();
       double* out = warm_beta_.data() + k * c;
-      for (int j = 0; j < k; ++j)
-        out[j] = steps >= 2 ? std::max(0.0, 2 * w[j] - wp[j]) : steps == 1 ? w[j] : 0.0;
+      if (steps >= 5 && k == 4) {
+        // The least-squares quadratic through the last five steps, at the next.
+        const double *b1 = past(a, 1), *b3 = past(a, 3), *b4 = past(a, 4), *b5 = past(a, 5);
+        for (int j = 0; j < k; ++j)
+          out[j] = std::max(0.0, 1.8 * b1[j] - 0.8 * b3[j] - 0.6 * b4[j] + 0.6 * b5[j]);
+      } else if (steps >= 2) {
+        // The line through the last two.
+        const double *b1 = past(a, 1), *b2 = past(a, 2);
+        for (int j = 0; j < k; ++j) out[j] = std::max(0.0, 2 * b1[j] - b2[j]);
+      } else {
+        for (int j = 0; j < k; ++j) out[j] = steps == 1 ? past(a, 1)[j] : 0.0;
+      }
     }
     solveMaxDissipation(prob_, warm_beta_, o_.contact, sol_);
-    // This step's weights become the last, the last the one before.
+    // This step's weights into the ring, for k = 4 in their minimum-norm form: W's null space
+    // is z = (1, −1, 1, −1), and β + t z with t = −βᵀz / 4, clamped so that β + t z ≥ 0, is the
+    // shortest such weight vector (the same λ = Wβ).
+    warm_head_ = (warm_head_ + 1) % kWarmHistory;
     for (int c = 0; c < nc; ++c) {
       const int a = active_[c];
-      double *w = warm_.col(a).data(), *wp = warm_prev_.col(a).data();
-      for (int j = 0; j < k; ++j) wp[j] = w[j], w[j] = sol_.beta(k * c + j);
-      warm_steps_[a] = std::min(warm_steps_[a] + 1, 2);
+      const double* b = sol_.beta.data() + k * c;
+      double* w = past(a, 1);
+      if (k == 4) {
+        const double lo = -std::min(b[0], b[2]), hi = std::min(b[1], b[3]);
+        const double t = std::clamp(-0.25 * (b[0] - b[1] + b[2] - b[3]), lo, hi);
+        w[0] = b[0] + t, w[1] = b[1] - t, w[2] = b[2] + t, w[3] = b[3] - t;
+      } else {
+        for (int j = 0; j < k; ++j) w[j] = b[j];
+      }
+      warm_steps_[a] = std::min(warm_steps_[a] + 1, kWarmHistory);
     }
     lambda_ = sol_.lambda;
     residuals_ = sol_.residuals;

@@ -23,24 +23,22 @@
 //                  articulated inertias, every pair of directions meeting at its lowest
 //                  common ancestor, Θ(n + m²).
 //   solve        the maximum-dissipation contact impulses λ (sim/contact_solver.hpp), warm
-//                started from the generator weights of the same point: extrapolated
-//                linearly, max(0, 2β_{t−1} − β_{t−2}), where the point was in contact in both
-//                previous steps, else β_{t−1}, else 0. While contacts stick or slide smoothly
-//                the solution moves along a smooth path and the extrapolation takes out its
-//                first-order change (the walking centipede after 300 steps of 10⁻⁵ s, S = 5
-//                and 20, two inner passes: 2 block Gauss–Seidel sweeps per solve, against 10
-//                from β_{t−1} and 12 from 0, at the same tolerance; the answer is the
-//                solver's, whatever the start). A second-difference term was tried (one inner
-//                pass, the median over `minv simulate sweep --segments 5 --steps 1000`): with
-//                weight ½ it saved a sweep on some steps but not the median one (3), with
-//                weight 1 (quadratic extrapolation) the median took 23. That failure is the
-//                weights' freedom, not the extrapolation: β is not unique (W has a null space)
-//                and the solves' β wander along it. Kept in their minimum-norm form (moved
-//                along the null space toward W⁺λ while ≥ 0) and extrapolated by the
-//                least-squares quadratic through five steps, 77 % of the S = 5 solves
-//                converged in one sweep (mean 1.45 sweeps, was 2.54); but the solve stage went
-//                1.62 -> 1.46-1.48 us at S = 5, 7.8 -> 6.6 us at S = 20 and 24.0 -> 25.5-26.2 us
-//                at S = 40 (medians, Zen 4, builds alternated), so it was not kept.
+//                started per contact point by extrapolating its weights β of earlier steps.
+//                β is not unique (W has a null space) and the solves' β wander along it, so
+//                each step's β is stored in its minimum-norm form: for the usual k = 4 the
+//                null space is z = (1, −1, 1, −1), and β + t z, t = −βᵀz/4 clamped so that
+//                β + t z ≥ 0, is the shortest β ≥ 0 with the same λ. The start is max(0, ·) of
+//                the least-squares quadratic through the last five steps' β, evaluated at the
+//                next (1.8 β_{t−1} − 0.8 β_{t−3} − 0.6 β_{t−4} + 0.6 β_{t−5}), where the point
+//                was in contact in all five; the line through the last two (2β_{t−1} − β_{t−2})
+//                after two to four steps, and for k ≠ 4 (β as solved); β_{t−1} after one; else
+//                0. The answer is the solver's, whatever the start. Measured on the walking
+//                centipede (`minv simulate sweep --segments S`, medians, Zen 4, builds
+//                alternated; the line through the last two before): at S = 5, 77 % of the
+//                solves need one block Gauss–Seidel sweep (mean 1.45, was 2.54) and the solve
+//                stage takes 1.25 us (was 1.63); at S = 10 2.60 (3.97), S = 20 5.9 (7.8), S = 40
+//                24 (30), S = 100 153-160 (177-185). Quadratic extrapolation of β as solved
+//                (not in minimum-norm form) made the median solve take 23 sweeps.
 //   update       v⁺ = v* + M⁻¹Jλ (solver paths: X λ; test-impulse and contact-inertia: one
 //                impulse sweep), then
 //                q ← q ⊕ h v⁺ (sim/dynamics.hpp). This is semi-implicit ("symplectic")
@@ -148,9 +146,12 @@ class Simulator {
   Eigen::MatrixXd J_, X_, Xt_;
   ContactProblem prob_;  // A is built in place here
   ContactSolution sol_;  // the last solve (its storage kept)
-  // Per contact point (a column each), the generator weights of the last two steps, and in
-  // how many of them (0, 1, 2: two or more) the point was in contact.
-  Eigen::MatrixXd warm_, warm_prev_;
+  // The generator weights of the last kWarmHistory steps, a column per step and contact point
+  // (column slot·P + point, slot warm_head_ the last step's), and per point in how many of
+  // those steps, back from the last, it was in contact.
+  static constexpr int kWarmHistory = 5;
+  Eigen::MatrixXd warm_;
+  int warm_head_ = 0;
   std::vector<int> warm_steps_;
   std::vector<int> active_;
   // This step's contact directions (3 per active contact): body, unit wrench, velocity; the

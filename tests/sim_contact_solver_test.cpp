@@ -273,37 +273,72 @@ TEST(SimContactSolver, BlockSolveMatchesReferenceOnRecordedCentipedeProblems) {
   }
 }
 
-// The simulator's warm start (sim/simulator.hpp): at a point in contact in the two previous
-// steps, max(0, 2β_{t−1} − β_{t−2}); after one step in contact, β_{t−1}; else 0. Each step's
-// weights β are solved again here from its recorded problem and start (the solve is
-// deterministic), on a standing centipede whose legs all stay in contact.
-TEST(SimContactSolver, WarmStartExtrapolatesTheLastTwoSteps) {
+// The minimum-norm weights of one contact's λ = Wβ over β ≥ 0 (k = 4, whose W has the 1-D null
+// space z), found independently of the simulator's closed form: W⁺λ if it is non-negative,
+// else the shortest of the feasible points β + t z at which one weight is zero.
+Eigen::Vector4d minimumNormWeights(const Eigen::MatrixXd& W, const Eigen::Vector4d& beta) {
+  const Eigen::Vector4d z(1, -1, 1, -1);
+  EXPECT_LT((W * z).norm(), 1e-15);
+  const Eigen::Vector4d pinv = W.completeOrthogonalDecomposition().solve(W * beta);
+  if (pinv.minCoeff() >= 0) return pinv;
+  Eigen::Vector4d best = beta;
+  for (int j = 0; j < 4; ++j) {
+    const Eigen::Vector4d cand = beta - beta(j) / z(j) * z;
+    if (cand.minCoeff() >= -1e-15 && cand.norm() < best.norm()) best = cand.cwiseMax(0.0);
+  }
+  return best;
+}
+
+// The simulator's warm start (sim/simulator.hpp): at a point in contact in the five previous
+// steps, max(0, ·) of the least-squares quadratic through their minimum-norm weights,
+// evaluated at the next step; after two to four steps in contact the line through the last two;
+// after one, the last; else 0. Each step's weights are solved again here from its recorded
+// problem and start (the solve is deterministic), on a standing centipede whose legs all stay
+// in contact; the quadratic's weights are fitted here, not copied.
+TEST(SimContactSolver, WarmStartExtrapolatesMinimumNormWeights) {
   const Centipede c = makeCentipede({.segments = 3});
   SimOptions so;
   so.dt = 1e-5;
   so.path = kContactInertiaPath;
   WalkingCentipede walk(c, so);
   Simulator& sim = walk.sim();
-  std::vector<Eigen::VectorXd> beta;
-  int checked = 0, distinct = 0;
-  for (int step = 0; step < 8; ++step) {
+  ASSERT_EQ(so.friction_dirs, 4);
+  const Eigen::MatrixXd W = coneGenerators(so.mu, 4);
+  // The least-squares quadratic through values at t = −1 … −5, evaluated at t = 0.
+  Eigen::MatrixXd V(5, 3);
+  for (int d = 1; d <= 5; ++d) V.row(d - 1) << 1, -d, d * d;
+  const Eigen::VectorXd fit = V * (V.transpose() * V).inverse().row(0).transpose();
+  std::vector<Eigen::VectorXd> canon;  // each step's weights, per contact minimum-norm
+  int checked = 0, quadratic = 0, distinct = 0;
+  for (int step = 0; step < 12; ++step) {
     sim.step();
     ASSERT_EQ(sim.lastContacts(), c.legs()) << "step " << step;
     const Eigen::VectorXd& start = sim.lastWarmStart();
-    if (step == 0) {
-      EXPECT_TRUE(start.isZero()) << "no earlier step";
-    } else if (step == 1) {
-      EXPECT_TRUE(start == beta[0]) << "one earlier step";
-    } else {
-      const Eigen::VectorXd expected = (2 * beta[step - 1] - beta[step - 2]).cwiseMax(0.0);
-      EXPECT_TRUE(start == expected) << "step " << step;
-      ++checked;
-      distinct += expected != beta[step - 1];  // the test tells extrapolation from reuse
+    const int nb = static_cast<int>(start.size());
+    Eigen::VectorXd expected = Eigen::VectorXd::Zero(nb);
+    if (step == 1) expected = canon[0];
+    if (step >= 2 && step < 5) expected = (2 * canon[step - 1] - canon[step - 2]).cwiseMax(0.0);
+    if (step >= 5) {
+      for (int d = 1; d <= 5; ++d) expected += fit(d - 1) * canon[step - d];
+      expected = expected.cwiseMax(0.0);
+      ++quadratic;
+      distinct += (expected - (2 * canon[step - 1] - canon[step - 2]).cwiseMax(0.0)).norm() >
+                  1e-9 * expected.norm();
     }
-    beta.push_back(solveMaxDissipation(sim.lastProblem(), start, so.contact).beta);
+    EXPECT_LE((start - expected).norm(), 1e-12 * (1 + expected.norm())) << "step " << step;
+    checked += step >= 1;
+    // This step's weights, solved again, and their minimum-norm form (the same λ).
+    const Eigen::VectorXd beta = solveMaxDissipation(sim.lastProblem(), start, so.contact).beta;
+    Eigen::VectorXd m(nb);
+    for (int q = 0; q < nb / 4; ++q) {
+      m.segment<4>(4 * q) = minimumNormWeights(W, beta.segment<4>(4 * q));
+      EXPECT_LE((W * (m.segment<4>(4 * q) - beta.segment<4>(4 * q))).norm(), 1e-12);
+    }
+    canon.push_back(m);
   }
-  EXPECT_EQ(checked, 6);
-  EXPECT_GE(distinct, 5);
+  EXPECT_EQ(checked, 11);
+  EXPECT_EQ(quadratic, 7);
+  EXPECT_GE(distinct, 5);  // the test tells the quadratic from the line
 }
 
 }  // namespace
