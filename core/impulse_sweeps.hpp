@@ -76,44 +76,64 @@ void impulseBackwardStep(std::integral_constant<int, K>, const Kinematics<T>& ki
   if (!root) Y += art.UDinv.template middleCols<K>(v, k).lazyProduct(u);
 }
 
-// One body of the forward sweep, K DOFs at v: Δq̇_i into dq and Δv_i into ws.dv.
+// One body of the forward sweep, K DOFs at v: Δq̇_i into dq and Δv_i into dv (and ws.dv), from
+// Δv_λ(i) in dvp.
 template <class T, int K, class Dq>
 void impulseForwardStep(std::integral_constant<int, K>, const Kinematics<T>& kin,
                         const Articulated<T>& art, ImpulseWorkspace<T>& ws, Dq& dq, int i, int p,
-                        int v, int k) {
+                        int v, int k, const Vec6<T>& dvp, Vec6<T>& dv) {
   auto qd = dq.template segment<K>(v, k);
   // Δq̇_i = D_i⁻¹ u_i − (U_i D_i⁻¹)ᵀ Δv_λ(i)   (Δv_λ(i) = 0 at a root)
   qd = art.Dinv[i].template topLeftCorner<K, K>(k, k).lazyProduct(ws.u.template segment<K>(v, k));
-  if (p >= 0) qd -= art.UDinv.template middleCols<K>(v, k).transpose().lazyProduct(ws.dv.col(p));
+  if (p >= 0) qd -= art.UDinv.template middleCols<K>(v, k).transpose().lazyProduct(dvp);
   // Δv_i = Δv_λ(i) + S_i Δq̇_i
-  ws.dv.col(i) = kin.S.template middleCols<K>(v, k).lazyProduct(qd);
-  if (p >= 0) ws.dv.col(i) += ws.dv.col(p);
+  dv = kin.S.template middleCols<K>(v, k).lazyProduct(qd);
+  if (p >= 0) dv += dvp;
+  ws.dv.col(i) = dv;
 }
 
 // Backward sweep (Alg. 1 lines 2-5), leaves first. On entry ws.u = r and ws.Y.col(i) = −f_i
-// (zero where no impulse is applied); on exit ws.u = u (ws.Y is left as scratch).
+// (zero where no impulse is applied); on exit ws.u = u (ws.Y is left as scratch). Along a chain
+// (the parent is the next body done) Y_i + U_i D_i⁻¹ u_i goes on in registers (`carry`), not
+// through memory, as in core/articulated.hpp; the same operations.
 template <class T>
 void impulseBackward(const Model& model, const Kinematics<T>& kin, const Articulated<T>& art,
                      ImpulseWorkspace<T>& ws) {
+  Vec6<T> carry;
+  bool carried = false;
   for (int i = model.nb() - 1; i >= 0; --i) {
     const int p = model.parent(i), v = model.vIdx(i), k = model.nvOf(i);
+    // Y_i: its own and its children's terms
+    Vec6<T> Y = ws.Y.col(i);
+    if (carried) Y += carry;
     // u_i = r_i − S_iᵀ Y_i, and Y_i + U_i D_i⁻¹ u_i in place of Y_i
-    forJointSize(k,
-                 [&](auto K) { impulseBackwardStep(K, kin, art, ws, ws.Y.col(i), v, k, p < 0); });
-    // Y_λ(i) += Y_i + U_i D_i⁻¹ u_i
-    if (p >= 0) ws.Y.col(p) += ws.Y.col(i);
+    forJointSize(k, [&](auto K) { impulseBackwardStep(K, kin, art, ws, Y, v, k, p < 0); });
+    // Y_λ(i) += Y_i + U_i D_i⁻¹ u_i: in registers if λ(i) is the next body, else in memory
+    carried = p >= 0 && p == i - 1;
+    if (carried)
+      carry = Y;
+    else if (p >= 0)
+      ws.Y.col(p) += Y;
   }
 }
 
 // Forward sweep (Alg. 1 lines 6-9), roots first: Δq̇ from the u of the backward sweep into
-// dq, and every body's Δv into ws.dv.
+// dq, and every body's Δv into ws.dv (the parent's read back from registers along a chain).
 template <class T>
 void impulseForward(const Model& model, const Kinematics<T>& kin, const Articulated<T>& art,
                     ImpulseWorkspace<T>& ws, ImpulseOut<T> dq) {
+  Vec6<T> dv = Vec6<T>::Zero();  // Δv of the body just done
   for (int i = 0; i < model.nb(); ++i) {
     const int p = model.parent(i), v = model.vIdx(i), k = model.nvOf(i);
+    Vec6<T> dvp;
+    if (p < 0)
+      dvp.setZero();
+    else if (p == i - 1)
+      dvp = dv;
+    else
+      dvp = ws.dv.col(p);
     // Δq̇_i = D_i⁻¹ u_i − (U_i D_i⁻¹)ᵀ Δv_λ(i),  Δv_i = Δv_λ(i) + S_i Δq̇_i
-    forJointSize(k, [&](auto K) { impulseForwardStep(K, kin, art, ws, dq, i, p, v, k); });
+    forJointSize(k, [&](auto K) { impulseForwardStep(K, kin, art, ws, dq, i, p, v, k, dvp, dv); });
   }
 }
 
