@@ -60,7 +60,9 @@ void bodyVelocities(const Model& model, const Kinematics<double>& kin, const Eig
 // 0.98-1.18 for this code in the same standalone probe (pass 1 equal, pass 2 +110-150 ns). The
 // cross products as scalars stored in aligned pairs took pass 1 from 421 to 341 ns in a
 // standalone probe, but the step's dynamics stage went 2.92-2.94 -> 2.97-2.98 us (builds
-// alternated, 3 rounds).
+// alternated, 3 rounds). The parent's vector carried in registers along chains, as the impulse
+// sweeps do: in all three passes 2.92-3.02 -> 3.28-3.38 us, in passes 2 and 3 alone unchanged
+// (2.91-2.93; 3 rounds each).
 namespace {
 MINV_CLONES_FLAT void abaPasses(const Model& model, const Kinematics<double>& kin,
                                 const Articulated<double>& art, const Eigen::VectorXd& v,
