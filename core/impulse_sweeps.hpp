@@ -49,7 +49,7 @@ namespace minv {
 // Scratch of the sweeps for one tree, allocated once.
 template <class T>
 struct ImpulseWorkspace {
-  Mat6N<T> Y;   // Y_i, a force vector per body (then Y_i + U_i D_i⁻¹ u_i, handed to λ(i))
+  Mat6N<T> Y;   // −f_i per body on entry (a force vector), then the backward sweep's scratch
   Mat6N<T> dv;  // Δv_i: spatial velocity change, a motion vector per body
   VecX<T> u;    // u_i = r_i − S_iᵀ Y_i, per DOF
 

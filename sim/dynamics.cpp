@@ -61,8 +61,8 @@ void bodyVelocities(const Model& model, const Kinematics<double>& kin, const Eig
 // cross products as scalars stored in aligned pairs took pass 1 from 421 to 341 ns in a
 // standalone probe, but the step's dynamics stage went 2.92-2.94 -> 2.97-2.98 us (builds
 // alternated, 3 rounds). The parent's vector carried in registers along chains, as the impulse
-// sweeps do: in all three passes 2.92-3.02 -> 3.28-3.38 us, in passes 2 and 3 alone unchanged
-// (2.91-2.93; 3 rounds each).
+// sweeps do: the dynamics stage went 2.92-3.02 -> 3.28-3.38 us with it in all three passes, and
+// stayed at 2.91-2.93 with it in passes 2 and 3 alone (3 rounds each).
 namespace {
 MINV_CLONES_FLAT void abaPasses(const Model& model, const Kinematics<double>& kin,
                                 const Articulated<double>& art, const Eigen::VectorXd& v,
@@ -195,8 +195,8 @@ void testImpulses(const Model& model, const Kinematics<double>& kin, const Artic
 // The update's impulse sweeps, compiled (the whole call tree inlined) for AVX-512 and AVX2 beside
 // the portable build, as abaPasses. With the sweeps' chain carried in registers
 // (core/impulse_sweeps.hpp) the S = 5 centipede's update stage took 0.74-0.75 us, against
-// 0.84-0.91 in the portable build; with neither 0.94, and the clones without the carry 0.93-0.95
-// (Zen 4, builds alternated, 3-4 rounds).
+// 0.84-0.91 with the carry alone (no clones); with neither 0.94, and the clones without the carry
+// 0.93-0.95 (Zen 4, builds alternated, 3-4 rounds).
 MINV_CLONES_FLAT void applyImpulses(const Model& model, const Kinematics<double>& kin,
                                     const Articulated<double>& art, ImpulseWorkspace& ws,
                                     const std::vector<int>& bodies,

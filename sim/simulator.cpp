@@ -199,7 +199,8 @@ void Simulator::step() {
     for (int c = 0; c < nc; ++c) {
       const int a = active_[c], steps = warm_steps_[a];
       double* out = warm_beta_.data() + k * c;
-      if (steps >= 5 && k == 4) {
+      static_assert(kWarmHistory == 5, "the quadratic's weights are for five steps");
+      if (steps >= kWarmHistory && k == 4) {
         // The least-squares quadratic through the last five steps, at the next.
         const double *b1 = past(a, 1), *b3 = past(a, 3), *b4 = past(a, 4), *b5 = past(a, 5);
         for (int j = 0; j < k; ++j)
@@ -213,15 +214,14 @@ void Simulator::step() {
       }
     }
     solveMaxDissipation(prob_, warm_beta_, o_.contact, sol_);
-    // This step's weights into the ring, for k = 4 in their minimum-norm form: W's null space
-    // is z = (1, −1, 1, −1), and β + t z with t = −βᵀz / 4, clamped so that β + t z ≥ 0, is the
-    // shortest such weight vector (the same λ = Wβ).
+    // This step's weights into the ring (k = 4: in minimum-norm form, see sim/simulator.hpp).
     warm_head_ = (warm_head_ + 1) % kWarmHistory;
     for (int c = 0; c < nc; ++c) {
       const int a = active_[c];
       const double* b = sol_.beta.data() + k * c;
       double* w = past(a, 1);
       if (k == 4) {
+        // β + t z, z = (1, −1, 1, −1) spanning W's null space, t = −βᵀz / 4 clamped to β + t z ≥ 0
         const double lo = -std::min(b[0], b[2]), hi = std::min(b[1], b[3]);
         const double t = std::clamp(-0.25 * (b[0] - b[1] + b[2] - b[3]), lo, hi);
         w[0] = b[0] + t, w[1] = b[1] - t, w[2] = b[2] + t, w[3] = b[3] - t;

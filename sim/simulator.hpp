@@ -36,9 +36,13 @@
 //                centipede (`minv simulate sweep --segments S`, medians, Zen 4, builds
 //                alternated; the line through the last two before): at S = 5, 77 % of the
 //                solves need one block Gauss–Seidel sweep (mean 1.45, was 2.54) and the solve
-//                stage takes 1.25 us (was 1.63); at S = 10 2.60 (3.97), S = 20 5.9 (7.8), S = 40
-//                24 (30), S = 100 153-160 (177-185). Quadratic extrapolation of β as solved
-//                (not in minimum-norm form) made the median solve take 23 sweeps.
+//                stage takes 1.25 us (was 1.63); at S = 10 2.60 (3.97), S = 20 5.9-6.4
+//                (7.8-10.5), S = 40 23.8-25.2 (29.9-32.6, 1000 and 2000 steps), S = 100 153-160
+//                (177-185). An earlier trial of this scheme, whose code was not kept, had
+//                measured S = 40 slower (24.0 -> 25.5-26.2 us, against a baseline run then);
+//                this implementation did not reproduce that. Extrapolating β as solved (not in
+//                minimum-norm form) by 3β_{t−1} − 3β_{t−2} + β_{t−3}, with one inner pass, made
+//                the median solve take 23 sweeps.
 //   update       v⁺ = v* + M⁻¹Jλ (solver paths: X λ; test-impulse and contact-inertia: one
 //                impulse sweep), then
 //                q ← q ⊕ h v⁺ (sim/dynamics.hpp). This is semi-implicit ("symplectic")
