@@ -9,6 +9,8 @@
 #include <Eigen/Cholesky>
 #include <Eigen/QR>
 #include <cmath>
+#include <map>
+#include <set>
 
 #include "generators/centipede.hpp"
 #include "generators/random_tree.hpp"
@@ -289,26 +291,42 @@ Eigen::Vector4d minimumNormWeights(const Eigen::MatrixXd& W, const Eigen::Vector
   return best;
 }
 
-// The simulator's warm start (sim/simulator.hpp): at a point in contact in the five previous
-// steps, max(0, ·) of the least-squares quadratic through their minimum-norm weights,
-// evaluated at the next step; after two to four steps in contact the line through the last two;
-// after one, the last; else 0. Each step's weights are solved again here from its recorded
-// problem and start (the solve is deterministic), on a standing centipede whose legs all stay
-// in contact; the quadratic's weights are fitted here, not copied.
-TEST(SimContactSolver, WarmStartExtrapolatesMinimumNormWeights) {
-  const Centipede c = makeCentipede({.segments = 3});
+// The walking centipede's options in these tests: the contact-inertia path at step h.
+SimOptions walkingOptions(double h) {
   SimOptions so;
-  so.dt = 1e-5;
+  so.dt = h;
   so.path = kContactInertiaPath;
-  WalkingCentipede walk(c, so);
-  Simulator& sim = walk.sim();
-  ASSERT_EQ(so.friction_dirs, 4);
-  const Eigen::MatrixXd W = coneGenerators(so.mu, 4);
-  // The least-squares quadratic through values at t = −1 … −5, evaluated at t = 0.
+  return so;
+}
+
+// The start expected from the minimum-norm weights h of the consecutive steps in contact
+// before (the last at the back): max(0, ·) of the least-squares quadratic through the last five
+// at the next step (its weights fitted here from the 5×3 Vandermonde matrix, not copied), the
+// line through the last two after two to four, the last after one, else 0.
+Eigen::VectorXd expectedStart(const std::vector<Eigen::VectorXd>& h, int size) {
+  const int n = static_cast<int>(h.size());
+  if (n == 0) return Eigen::VectorXd::Zero(size);
+  if (n == 1) return h[0];
+  if (n < 5) return (2 * h[n - 1] - h[n - 2]).cwiseMax(0.0);
   Eigen::MatrixXd V(5, 3);
   for (int d = 1; d <= 5; ++d) V.row(d - 1) << 1, -d, d * d;
   const Eigen::VectorXd fit =
       V * (V.transpose() * V).colPivHouseholderQr().solve(Eigen::Vector3d::UnitX());
+  Eigen::VectorXd e = Eigen::VectorXd::Zero(size);
+  for (int d = 1; d <= 5; ++d) e += fit(d - 1) * h[n - d];
+  return e.cwiseMax(0.0);
+}
+
+// The simulator's warm start (sim/simulator.hpp) is expectedStart() of each point's minimum-norm
+// weights, on a standing centipede whose legs all stay in contact. Each step's weights are
+// solved again here from its recorded problem and start (the solve is deterministic).
+TEST(SimContactSolver, WarmStartExtrapolatesMinimumNormWeights) {
+  const Centipede c = makeCentipede({.segments = 3});
+  const SimOptions so = walkingOptions(1e-5);
+  WalkingCentipede walk(c, so);
+  Simulator& sim = walk.sim();
+  ASSERT_EQ(so.friction_dirs, 4);
+  const Eigen::MatrixXd W = coneGenerators(so.mu, 4);
   std::vector<Eigen::VectorXd> canon;  // each step's weights, per contact minimum-norm
   int checked = 0, quadratic = 0, distinct = 0, moved = 0;
   for (int step = 0; step < 12; ++step) {
@@ -316,17 +334,10 @@ TEST(SimContactSolver, WarmStartExtrapolatesMinimumNormWeights) {
     ASSERT_EQ(sim.lastContacts(), c.legs()) << "step " << step;
     const Eigen::VectorXd& start = sim.lastWarmStart();
     const int nb = static_cast<int>(start.size());
-    Eigen::VectorXd expected = Eigen::VectorXd::Zero(nb);
-    double tol = 0;  // set below: relative to the expected start
-    if (step == 1) expected = canon[0];
-    if (step >= 2 && step < 5) expected = (2 * canon[step - 1] - canon[step - 2]).cwiseMax(0.0);
-    if (step >= 5) {
-      for (int d = 1; d <= 5; ++d) expected += fit(d - 1) * canon[step - d];
-      expected = expected.cwiseMax(0.0);
-      ++quadratic;
-    }
+    const Eigen::VectorXd expected = expectedStart(canon, nb);
+    quadratic += step >= 5;
     // Relative to the start's own scale (β is about 1e-5 here), not an absolute floor.
-    tol = 1e-10 * expected.norm();
+    const double tol = 1e-10 * expected.norm();
     if (step >= 5)
       distinct +=
           (expected - (2 * canon[step - 1] - canon[step - 2]).cwiseMax(0.0)).norm() > 100 * tol;
@@ -347,6 +358,52 @@ TEST(SimContactSolver, WarmStartExtrapolatesMinimumNormWeights) {
   EXPECT_EQ(quadratic, 7);
   EXPECT_GE(distinct, 5);  // the test tells the quadratic from the line
   EXPECT_GE(moved, 1);     // and stored weights as solved from their minimum-norm form
+}
+
+// The same per contact point while the contact set changes: a walking centipede at h = 1 ms
+// lifts and sets down its legs, so points leave contact and come back (their history then
+// starts again from 0) and the contacts' order in the problem changes.
+TEST(SimContactSolver, WarmStartFollowsEachPointThroughContactChanges) {
+  const Centipede c = makeCentipede({.segments = 3});
+  const SimOptions so = walkingOptions(1e-3);
+  WalkingCentipede walk(c, so);
+  Simulator& sim = walk.sim();
+  const Eigen::MatrixXd W = coneGenerators(so.mu, 4);
+  // Per point, its minimum-norm weights of the consecutive steps in contact up to the last.
+  std::map<int, std::vector<Eigen::VectorXd>> history;
+  int reentries = 0, changes = 0, by_kind[4] = {};
+  std::vector<int> last_active;
+  std::set<int> ever;
+  for (int step = 0; step < 400; ++step) {
+    sim.step();
+    const std::vector<int>& active = sim.activeContacts();
+    changes += active != last_active;
+    const Eigen::VectorXd& start = sim.lastWarmStart();
+    ASSERT_EQ(start.size(), 4 * static_cast<int>(active.size()));
+    for (std::size_t q = 0; q < active.size(); ++q) {
+      const std::vector<Eigen::VectorXd>& h = history[active[q]];
+      const int n = static_cast<int>(h.size());
+      const Eigen::VectorXd expected = expectedStart(h, 4);
+      ++by_kind[std::min(n, 5) == 5 ? 3 : std::min(n, 2)];
+      reentries += n == 0 && ever.count(active[q]);
+      EXPECT_LE((start.segment<4>(4 * q) - expected).norm(), 1e-10 * expected.norm())
+          << "step " << step << " point " << active[q] << " history " << n;
+    }
+    // This step's weights, solved again; histories of points out of contact end.
+    const Eigen::VectorXd beta = solveMaxDissipation(sim.lastProblem(), start, so.contact).beta;
+    std::map<int, std::vector<Eigen::VectorXd>> next;
+    for (std::size_t q = 0; q < active.size(); ++q) {
+      std::vector<Eigen::VectorXd> h = std::move(history[active[q]]);
+      h.push_back(minimumNormWeights(W, beta.segment<4>(4 * q)));
+      next[active[q]] = std::move(h);
+      ever.insert(active[q]);
+    }
+    history = std::move(next);
+    last_active = active;
+  }
+  EXPECT_GE(changes, 4);
+  EXPECT_GE(reentries, 2);
+  for (int kind = 0; kind < 4; ++kind) EXPECT_GE(by_kind[kind], 2) << "kind " << kind;
 }
 
 }  // namespace
