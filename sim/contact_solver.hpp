@@ -38,11 +38,13 @@
 // no generator ends them). The default is 2: on problems recorded from the walking centipede
 // (warm started, five per size) two passes halve the sweeps (4 -> 2 per solve) and the solve
 // takes 17-33 % less time from S = 5 to 250 (Zen 5: 1.57 -> 1.26 us at S = 5, 27.8 -> 20.9 us
-// at 40, 2.41 -> 1.63 ms at 250); three passes also need 2 sweeps but cost more. The residual
-// test, the drift refresh every 64 sweeps (u = Aλ + v0 afresh) and the residuals reported are as
-// above; the final residuals use λ = Wβ and v⁺ = Aλ + v0 recomputed from β, and a sweep that
-// passes the test on the incremental u passes it again on those before the solve stops (else
-// the sweeps go on), so a converged solve reports a KKT residual within the tolerance.
+// at 40, 2.41 -> 1.63 ms at 250); three passes also need 2 sweeps but cost more. With the
+// minimum-norm warm start (sim/simulator.hpp) one pass took the S = 5 solve from 1.25 to 1.42 us
+// (Zen 4; mean sweeps 1.45 -> 2.58). The residual test, the drift refresh every 64 sweeps
+// (u = Aλ + v0 afresh) and the residuals reported are as above; the final residuals use λ = Wβ
+// and v⁺ = Aλ + v0 recomputed from β, and a sweep that passes the test on the incremental u
+// passes it again on those before the solve stops (else the sweeps go on), so a converged solve
+// reports a KKT residual within the tolerance.
 // solveMaxDissipationReference() is the former implementation (G formed, solveBoundQP),
 // kept as the oracle of tests/sim_contact_solver_test.cpp. The solve is one function compiled
 // per ISA level (sim/clones.hpp), its coordinate steps without data-dependent branches. Cost per

@@ -11,6 +11,10 @@ namespace minv::sim {
 
 namespace {
 using Clock = std::chrono::steady_clock;
+// Seconds since t0, and t0 moved to now: a stage boundary. A steady-clock read takes 24 ns on the
+// Zen 4 guest; reading the inner boundaries from the time-stamp counter instead (9.5 ns, the total
+// from the steady clock shared out by ticks) left the S = 5 step as it was (7.58-7.67 us against
+// 7.59-7.80, builds alternated, 4 rounds).
 double since(Clock::time_point& t0) {
   const Clock::time_point t1 = Clock::now();
   const double s = std::chrono::duration<double>(t1 - t0).count();
@@ -23,7 +27,11 @@ double since(Clock::time_point& t0) {
 // pair blocks are products of depth 6 that want FMA and wide vectors. The same code the
 // Counted scalar counts. The flattened AVX-512 clone is large (115 KB), but without `flatten`
 // (the helpers then run out of line at the portable level) the S = 5 centipede's matrices stage
-// took 2.82-2.91 us against 2.39-2.44 (Zen 4, builds alternated, 3 rounds).
+// took 2.82-2.91 us against 2.39-2.44 (Zen 4, builds alternated, 3 rounds). In a standalone
+// probe (S = 5, each call alternated with the committed one 100 000 times), three rewrites were
+// slower: rowProductFixed holding X's block in locals (+2-7 %), the pair blocks' mirror written
+// by a plain loop instead of Eigen's transposed copy (+6-25 %), and a deferred block handed up
+// by index instead of copied (+8-12 %).
 MINV_CLONES_FLAT void contactInertiaWide(const Model& model, const Kinematics<double>& kin,
                                          const Articulated<double>& art,
                                          const std::vector<int>& bodies,
