@@ -381,9 +381,10 @@ TEST(ImpulseSweeps, AbiFlushesSubnormalsAndRestoresTheMode) {
   }
 }
 
-// The joint blocks' inverse D⁻¹ (spdInverse: 3×3 by L Δ Lᵀ, other sizes by Cholesky) on SPD
-// matrices with condition numbers up to 1e12, against Eigen's LDLᵀ solve in long double:
-// relative error ≤ 50·κ·ε (backward stable; an adjugate formula's error grows as κ²).
+// The joint blocks' inverse D⁻¹ (spdInverse: 3×3 and 6×6 by L Δ Lᵀ, other sizes by Cholesky)
+// on SPD matrices with condition numbers up to 1e12, against Eigen's LDLᵀ solve in long double:
+// relative error ≤ 50·κ·ε (backward stable; an adjugate formula's error grows as κ²). Each size
+// as the articulated pass compiles it (3 and 6 fixed) and at run time (Eigen::Dynamic).
 TEST(ImpulseSweeps, SmallSpdInverseIsStable) {
   Rng rng(77);
   for (int k : {2, 3, 6}) {
@@ -398,17 +399,20 @@ TEST(ImpulseSweeps, SmallSpdInverseIsStable) {
       for (int i = 0; i < k; ++i) sigma(i) = std::pow(10.0, -decades * i / std::max(1, k - 1));
       const Eigen::MatrixXd D = Q * sigma.asDiagonal() * Q.transpose();
       const double kappa = sigma.maxCoeff() / sigma.minCoeff();
-      Eigen::MatrixXd Dinv(k, k);
-      if (k == 3)
-        spdInverse<double, 3>(D, Dinv);
-      else
-        spdInverse<double>(D, Dinv);
       using MatL = Eigen::Matrix<long double, Eigen::Dynamic, Eigen::Dynamic>;
       const MatL ref = D.cast<long double>().ldlt().solve(MatL::Identity(k, k));
-      const double err = static_cast<double>((Dinv.cast<long double>() - ref).norm() / ref.norm());
-      EXPECT_LE(err, 50 * kappa * std::numeric_limits<double>::epsilon())
-          << "k = " << k << ", kappa = " << kappa;
-      EXPECT_TRUE(Dinv == Dinv.transpose()) << "k = " << k;
+      Eigen::MatrixXd fixed(k, k), dynamic(k, k);
+      if (k == 3) spdInverse<double, 3>(D, fixed);
+      if (k == 6) spdInverse<double, 6>(D, fixed);
+      spdInverse<double>(D, dynamic);
+      for (const Eigen::MatrixXd* Dinv : {&fixed, &dynamic}) {
+        if (k == 2 && Dinv == &fixed) continue;
+        const double err =
+            static_cast<double>((Dinv->cast<long double>() - ref).norm() / ref.norm());
+        EXPECT_LE(err, 50 * kappa * std::numeric_limits<double>::epsilon())
+            << "k = " << k << (Dinv == &fixed ? " fixed" : " dynamic") << ", kappa = " << kappa;
+        EXPECT_TRUE(*Dinv == Dinv->transpose()) << "k = " << k;
+      }
     }
   }
 }
