@@ -62,7 +62,11 @@ void bodyVelocities(const Model& model, const Kinematics<double>& kin, const Eig
 // standalone probe, but the step's dynamics stage went 2.92-2.94 -> 2.97-2.98 us (builds
 // alternated, 3 rounds). The parent's vector carried in registers along chains, as the impulse
 // sweeps do: the dynamics stage went 2.92-3.02 -> 3.28-3.38 us with it in all three passes, and
-// stayed at 2.91-2.93 with it in passes 2 and 3 alone (3 rounds each).
+// stayed at 2.91-2.93 with it in passes 2 and 3 alone (3 rounds each). Pass 2's bias forces
+// folded into abi's articulated pass (a per-body hook in its module, Ia_i taken from registers,
+// pass 1 run there too): the stage went 2.91-2.95 -> 3.02-3.05 us. In a probe the folded bias
+// forces cost 390 ns of the backward pass against 290 for pass 2 on its own: the chain
+// pA_i -> u_i -> pA_λ(i) along the spine is not overlapped by the articulated step's own chain.
 namespace {
 MINV_CLONES_FLAT void abaPasses(const Model& model, const Kinematics<double>& kin,
                                 const Articulated<double>& art, const Eigen::VectorXd& v,
