@@ -14,7 +14,7 @@ using Clock = std::chrono::steady_clock;
 // Seconds since t0, and t0 moved to now: a stage boundary. A steady-clock read takes 24 ns on the
 // Zen 4 guest; reading the inner boundaries from the time-stamp counter instead (9.5 ns, the total
 // from the steady clock shared out by ticks) left the S = 5 step as it was (7.58-7.67 us against
-// 7.59-7.80, builds alternated, 4 rounds).
+// 7.59-7.80, builds alternated, 4 rounds; again later, 7.45-7.57 against 7.49-7.57).
 double since(Clock::time_point& t0) {
   const Clock::time_point t1 = Clock::now();
   const double s = std::chrono::duration<double>(t1 - t0).count();
@@ -31,7 +31,10 @@ double since(Clock::time_point& t0) {
 // probe (S = 5, each call alternated with the committed one 100 000 times), three rewrites were
 // slower: rowProductFixed holding X's block in locals (+2-7 %), the pair blocks' mirror written
 // by a plain loop instead of Eigen's transposed copy (+6-25 %), and a deferred block handed up
-// by index instead of copied (+8-12 %).
+// by index instead of copied (+8-12 %). The per-call tables and the out-of-preorder tiles moved
+// out of line (noinline, cold) shrank the clone to 93 KB and the probe's call by 60 ns, but left
+// the matrices stage in the step as it was (2.39-2.45 us against 2.37-2.42). In the step the call
+// takes 0.2 us more than back to back (2.35-2.39 us after a whole step, 2.13-2.17 alone).
 MINV_CLONES_FLAT void contactInertiaWide(const Model& model, const Kinematics<double>& kin,
                                          const Articulated<double>& art,
                                          const std::vector<int>& bodies,
