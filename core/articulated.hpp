@@ -64,7 +64,8 @@ using MatJ = Eigen::Matrix<T, K, K, 0, K == Eigen::Dynamic ? 6 : K, K == Eigen::
 // where Cholesky's grows as κ, 4e-8 against 5e-12 on a light spherical body above a heavy sliding
 // child.) The 6×6 form (a floating base) takes 100 ns against Cholesky's 150 on a Zen 4 core: one
 // division per column on the chain from one column to the next, where Cholesky has a square root
-// and a division.
+// and a division. The 3×3 pivots from leading minors (Δ2/Δ1, det/Δ2: three independent divisions)
+// were no faster alone (10 ns each) and far less accurate: errors up to 4·10⁶ κε against 25 κε.
 template <class T, int K = Eigen::Dynamic, class In, class Out>
 void spdInverse(const In& D, Out&& Dinv) {
   using std::sqrt;
