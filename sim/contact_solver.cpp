@@ -263,7 +263,8 @@ struct SolveScratch {
 // gradients pre-scaled by −1/G_jj were 7-9 % slower, u = Aλ + v0 in blocks of 8 rows 1.35-2x
 // slower, in groups of 16 rows summed over every column (two partial sums) 1.6x slower (170 ->
 // 270 ns), and Eigen's product with vectorised reciprocals no faster; the diagonals'
-// reciprocals divided in vector lanes left the solve stage as it was (1.19-1.22 us in the step).
+// reciprocals divided in vector lanes left the solve stage as it was (1.19-1.22 us in the step
+// against 1.21-1.22).
 MINV_CLONES_FLAT void solveInto(const ContactProblem& p, const ContactSolverOptions& o,
                                 const Cone& cn, SolveScratch& w, ContactSolution& s) {
   const int nc = static_cast<int>(p.b.size()), k = p.k, m = k * nc;

@@ -411,7 +411,8 @@ TEST(ImpulseSweeps, SmallSpdInverseIsStable) {
             static_cast<double>((Dinv->cast<long double>() - ref).norm() / ref.norm());
         EXPECT_LE(err, 50 * kappa * std::numeric_limits<double>::epsilon())
             << "k = " << k << (Dinv == &fixed ? " fixed" : " dynamic") << ", kappa = " << kappa;
-        EXPECT_TRUE(*Dinv == Dinv->transpose()) << "k = " << k;
+        EXPECT_TRUE(*Dinv == Dinv->transpose())
+            << "k = " << k << (Dinv == &fixed ? " fixed" : " dynamic");
       }
     }
   }
