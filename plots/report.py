@@ -21,6 +21,13 @@ def pct(s):
     return f"{(s - 1) * 100:+.0f} %"
 
 
+def sig3(x):
+    """x to three significant digits, trailing zeros kept and no exponent (0.100, 4.20, 541)."""
+    if not x:
+        return "0"
+    return f"{x:.{max(0, 2 - int(np.floor(np.log10(abs(x)))))}f}"
+
+
 def figure(lines, name, caption):
     if os.path.exists(os.path.join(FIGURES, name + ".png")):
         lines += [f"![{caption}](figures/{name}.png)", "",
@@ -286,12 +293,12 @@ def main():
                       "|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
             for r in rows:
                 # ms to three significant digits (S = 5 takes about 0.01 ms).
-                mj = (f"{1e3 * r['mujoco_total']:.3g} | {r['mujoco']:.1f}×"
+                mj = (f"{sig3(1e3 * r['mujoco_total'])} | {r['mujoco']:.1f}×"
                       if r["mujoco_total"] else "— | —")
-                two = (f"{1e3 * r['two_total']:.3g} | {r['two']:.2f}× "
+                two = (f"{sig3(1e3 * r['two_total'])} | {r['two']:.2f}× "
                        f"({r['two_matrices']:.2f}×)" if r["two_total"] else "— | —")
                 lines.append(f"| {r['S']} | {r['nv']} | {r['best']} | "
-                             f"{1e3 * r['best_total']:.3g} | {1e3 * r['lapack_total']:.3g} | "
+                             f"{sig3(1e3 * r['best_total'])} | {sig3(1e3 * r['lapack_total'])} | "
                              f"{r['total']:.1f}× | {r['matrices']:.1f}× | {mj} | {two} |")
             lines += ["", "The two-thread column (`minv simulate sweep --threads 2`, points "
                       "`<path>@2`) splits the test-impulse columns and the contact-inertia pair blocks "
