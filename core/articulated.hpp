@@ -76,27 +76,10 @@ void spdInverse(const In& D, Out&& Dinv) {
     Dinv(0, 0) = T(1) / D(0, 0);
     return;
   }
-  if constexpr (K == 3) {
-    // 3×3 (spherical joints): D = L Δ Lᵀ with L unit lower triangular, no square roots (the
-    // same elimination as Cholesky, as stable on SPD matrices); D⁻¹ = Mᵀ Δ⁻¹ M, M = L⁻¹.
-    const T r0 = T(1) / D(0, 0);
-    const T l10 = D(1, 0) * r0, l20 = D(2, 0) * r0;
-    const T r1 = T(1) / (D(1, 1) - l10 * D(1, 0));
-    const T e21 = D(2, 1) - l20 * D(1, 0);
-    const T l21 = e21 * r1;
-    const T r2 = T(1) / (D(2, 2) - l20 * D(2, 0) - l21 * e21);
-    const T m10 = -l10, m21 = -l21, m20 = l10 * l21 - l20;
-    const T m20r2 = m20 * r2, m21r2 = m21 * r2;
-    Dinv(0, 0) = r0 + m10 * m10 * r1 + m20 * m20r2;
-    Dinv(1, 0) = Dinv(0, 1) = m10 * r1 + m21 * m20r2;
-    Dinv(2, 0) = Dinv(0, 2) = m20r2;
-    Dinv(1, 1) = r1 + m21 * m21r2;
-    Dinv(2, 1) = Dinv(1, 2) = m21r2;
-    Dinv(2, 2) = r2;
-    return;
-  }
-  if constexpr (K == 6) {
-    // D = L Δ Lᵀ, L unit lower triangular: E = L Δ below the diagonal, r_j = 1 / Δ_jj.
+  if constexpr (K == 3 || K == 6) {
+    // 3×3 (spherical joints) and 6×6 (floating): D = L Δ Lᵀ with L unit lower triangular, no
+    // square roots (the same elimination as Cholesky, as stable on SPD matrices); E = L Δ below
+    // the diagonal, r_j = 1 / Δ_jj.
     T L[K][K], E[K][K], r[K];
     for (int j = 0; j < K; ++j) {
       T s = D(j, j);
