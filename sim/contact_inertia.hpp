@@ -70,6 +70,15 @@
 // the scalar: the Counted instantiation counts the very code that runs on double. With threads > 1
 // the large pair blocks (the Θ(m²) part) are split by rows among OpenMP threads; the result is
 // the same bit for bit (every entry is computed by the same products in the same order).
+//
+// Measured dead end: sharing the rows of every subtree of at least 256 directions between two
+// threads (the whole bottom-up pass in one OpenMP region; bit for bit the same A) made the S =
+// 250 centipede slower on the 2-vCPU Zen 5 guest (20 steps, medians): matrices 1.93-2.14 ms on
+// one thread against 3.12 ms with two OpenMP barriers per spine segment, and 2.59-3.18 ms with
+// a position cut and the lead's per-node signal in their place (no barrier); the contact
+// solve, which reads A on the first core, 1.62-1.84 -> 1.92-2.90 ms. With every row on the
+// lead and the other thread only waiting the pass alone took 2.6 ms against 2.1: on this
+// guest, lines written on one core and read on the other cost more than the rows' arithmetic.
 #pragma once
 
 #include <Eigen/Core>

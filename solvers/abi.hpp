@@ -396,6 +396,11 @@ inline void abiStoreFence() {
 //   nowhere); with `stream`, whole blocks as full lines without reading them (abiStoreLine);
 // - columns: once DOFs v0 … v0+7 < tiles are done, lane w's eight values to col[v0 + w·ld],
 //   one full line per lane through a small transposing buffer (col = nullptr: nowhere).
+// Measured dead end: the backward sweeps write nothing, so the upper half of a block's 8-row
+// groups was deferred into the next block's backward sweep (each group stored just before that
+// sweep overwrote its Δq̇). The blocks got slower the more was deferred: n = 4096 12.7 ms with
+// none, 16.6 with a quarter, 19.5 with half, 26.8 with all (n = 2048: 2.94, 3.70, 4.35, 5.48
+// ms; Zen 5 guest, medians of 3); a second Δq̇ buffer instead of the overwrite was as slow.
 template <class T>
 struct LaneRows {
   T* x = nullptr;
