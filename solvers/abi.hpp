@@ -398,9 +398,12 @@ inline void abiStoreFence() {
 //   one full line per lane through a small transposing buffer (col = nullptr: nowhere).
 // Measured dead end: the backward sweeps write nothing, so the upper half of a block's 8-row
 // groups was deferred into the next block's backward sweep (each group stored just before that
-// sweep overwrote its Δq̇). The blocks got slower the more was deferred: n = 4096 12.7 ms with
-// none, 16.6 with a quarter, 19.5 with half, 26.8 with all (n = 2048: 2.94, 3.70, 4.35, 5.48
-// ms; Zen 5 guest, medians of 3); a second Δq̇ buffer instead of the overwrite was as slow.
+// sweep overwrote its Δq̇). With the rows stored plainly (Zen 5's choice) the blocks got slower
+// the more was deferred: n = 4096 12.4-13.1 ms with none, 16.6 with a quarter, 19.5-20.0 with
+// half, 27.0 with all (n = 2048: 3.0, 3.7, 4.5, 6.0 ms; Zen 5 guest, medians of 3, the
+// fractions run in shuffled order twice); with the rows streamed, half or all deferred cost
+// 4-10 % (4096: 14.0-14.2 -> 14.7-15.5 ms) and gained nothing at 2048. A second Δq̇ buffer
+// instead of the overwrite was as slow.
 template <class T>
 struct LaneRows {
   T* x = nullptr;
@@ -556,7 +559,9 @@ void abiInverse(const Model& model, AbiConfigurations<T> config, AbiWorkspace<T>
     FlushSubnormals flush;
     NoMark none;
     // Blocks are independent and write disjoint parts of Minv; later ones cost more: the
-    // costliest first, handed out as threads come free.
+    // costliest first, handed out as threads come free. (Dealt out instead in a fixed snake
+    // order, so that each thread wrote the same lines every call, they took as long at n = 512
+    // and 10 % longer at 1024 and 2048 on two threads: Zen 5 guest, 6 rounds alternated.)
 #pragma omp for schedule(dynamic, 1) nowait
     for (int r = 0; r < blocks; ++r) block(blocks - 1 - r, omp_thread(), none);
     abiStoreFence<T>();
