@@ -154,8 +154,8 @@ bool streamStridedRows() {
   return streamsStridedRowsBest(cpuIdentity());
 }
 
-bool streamsStridedRowsBest(const CpuIdentity& cpu) {
-  return !(cpu.vendor == "AuthenticAMD" && cpu.family >= 0x1a);
+bool streamsStridedRowsBest(const CpuIdentity& /*cpu*/) {
+  return true;
 }
 
 }  // namespace minv

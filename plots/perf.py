@@ -268,8 +268,8 @@ def machines_section():
         return []
     return ["", "## Issue 16's targets on every machine measured", "",
             "One row per result file (the machines are not all one CPU: Zen 5 handles "
-            "subnormal numbers and plain strided stores well, an Intel Xeon does not, and Zen 4 "
-            "and the Xeon write M⁻¹'s mirrored rows faster streamed; see README, \"Two CPU "
+            "subnormal numbers well, an Intel Xeon does not; each row says whether abi streamed "
+            "M⁻¹'s mirrored rows, as it now does on every CPU; see README, \"Two CPU "
             "traits\"). Pipeline ratios as above; % of dgemm is abi's counted "
             "operations per second over dgemm's, timed over the whole pipeline and over the "
             "sweeps alone (the parts table: configure and the writes excluded); the last column "

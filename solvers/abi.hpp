@@ -361,9 +361,9 @@ inline void abiForwardBody(const Kinematics<T>& kin, const Articulated<T>& art, 
 // overwriting it would only double the memory traffic. abiInverse fences them (abiStoreFence).
 // Used for the column strips above each block's diagonal (whole 8-row lines): on Zen 5 their
 // writes took 16–25 % less time at n = 1024 and 2048 and the same at 4096. The rows left of
-// the diagonal (two lines per column, one column apart) are streamed where the CPU gains by it
-// (core/cpu.hpp, streamStridedRows: 2.2× faster at n = 4096 on an Intel Xeon, 6–28 % on Zen 4)
-// and stored plainly where it does not (25–35 % slower on Zen 5).
+// the diagonal (two lines per column, one column apart) are streamed too (core/cpu.hpp,
+// streamStridedRows: 2.2× faster at n = 4096 on an Intel Xeon, 6–28 % on Zen 4, 7–15 % at
+// n = 1024 and 2048 on Zen 5), or stored plainly where MINV_ABI_ROWS=plain says so.
 template <class T>
 inline void abiStoreLine(T* dst, const T* src) {
   if constexpr (std::is_same_v<T, double>) {
@@ -398,12 +398,12 @@ inline void abiStoreFence() {
 //   one full line per lane through a small transposing buffer (col = nullptr: nowhere).
 // Measured dead end: the backward sweeps write nothing, so the upper half of a block's 8-row
 // groups was deferred into the next block's backward sweep (each group stored just before that
-// sweep overwrote its Δq̇). With the rows stored plainly (Zen 5's choice) the blocks got slower
-// the more was deferred: n = 4096 12.4-13.1 ms with none, 16.6 with a quarter, 19.5-20.0 with
-// half, 27.0 with all (n = 2048: 3.0, 3.7, 4.5, 6.0 ms; Zen 5 guest, medians of 3, the
-// fractions run in shuffled order twice); with the rows streamed, half or all deferred cost
-// 4-10 % (4096: 14.0-14.2 -> 14.7-15.5 ms) and gained nothing at 2048. A second Δq̇ buffer
-// instead of the overwrite was as slow.
+// sweep overwrote its Δq̇). With the rows stored plainly (then Zen 5's choice) the blocks got
+// slower the more was deferred: n = 4096 12.4-13.1 ms with none, 16.6 with a quarter,
+// 19.5-20.0 with half, 27.0 with all (n = 2048: 3.0, 3.7, 4.5, 6.0 ms; Zen 5 guest, medians of
+// 3, the fractions run in shuffled order twice); with the rows streamed, half or all deferred
+// cost 4-10 % (4096: 14.0-14.2 -> 14.7-15.5 ms) and gained nothing at 2048. A second Δq̇
+// buffer instead of the overwrite was as slow.
 template <class T>
 struct LaneRows {
   T* x = nullptr;
