@@ -404,6 +404,15 @@ inline void abiStoreFence() {
 // 3, the fractions run in shuffled order twice); with the rows streamed, half or all deferred
 // cost 4-10 % (4096: 14.0-14.2 -> 14.7-15.5 ms) and gained nothing at 2048. A second Δq̇
 // buffer instead of the overwrite was as slow.
+// Measured dead end: rows written 4 blocks at a time. Alone (no arithmetic), this writing
+// pattern takes 6.5 ms at n = 4096 and 2 × 64 rows per column 3.7 ms (one line per column
+// costs most). So a group's first three blocks kept their rows in a scratch strip, and the
+// last one wrote all 64 rows of a column together. Paired against one block at a time in one
+// process (alternate calls, medians of 40-500): n = 4096 0.96× (quartiles 0.89-1.01), 2048
+// 1.04×, 1024 1.10×; with 2 or 8 blocks no better. Where the writes go at n = 4096 (blocks,
+// 2 runs): 8.9-9.5 ms without the row stores, 9.3-10.6 with them into an L1 scratch, 11.4-12.0
+// streamed to 8 fixed lines, 14.0-14.4 into X. So half the cost is in the streaming stores
+// themselves, wherever they land. (Zen 5 guest.)
 template <class T>
 struct LaneRows {
   T* x = nullptr;
