@@ -3,7 +3,9 @@
 // Contract: kin holds world-frame S and I. For each body i, leaves first:
 //   U_i = IA_i S_i,  D_i = S_iᵀ U_i (k×k),  IA_λ(i) += IA_i − U_i D_i⁻¹ U_iᵀ
 // Stored per configuration for the impulse sweeps of solvers/abi: U, D⁻¹ and U·D⁻¹ (the
-// paper's §5.2 saving: computed once, not per column). Cost Θ(nb); no allocation.
+// paper's §5.2 saving: computed once, not per column), and c_i = −S_λᵀ U_i D_i⁻¹ where a one-DOF
+// body's parent is the previous body and has one DOF (the links' coupling, by which abi
+// regroups its sweeps). Cost Θ(nb); no allocation.
 #pragma once
 
 #include <cmath>
@@ -21,6 +23,9 @@ struct Articulated {
   Mat6N<T> UDinv;             // U D⁻¹, column per DOF
   std::vector<MatK<T>> Dinv;  // D⁻¹ per body, k×k
   VecX<T> dinv;               // D⁻¹ of each one-DOF body at its DOF: dense, for the sweeps
+  // c_i = −S_λᵀ U_i D_i⁻¹ at the DOF of a one-DOF body i whose parent λ = i − 1 has one DOF
+  // (else 0): the coupling of consecutive links, by which abi's sweeps regroup their chains.
+  VecX<T> couple;
   // The bodies with a child other than the next body (a branch point), in order: their IA
   // gathers those children's terms in memory (articulatedInertias).
   std::vector<int> gathering;
@@ -32,6 +37,7 @@ struct Articulated {
         UDinv(Mat6N<T>::Zero(6, m.nv())),
         Dinv(m.nb()),
         dinv(VecX<T>::Zero(m.nv())),
+        couple(VecX<T>::Zero(m.nv())),
         gathers(m.nb(), 0) {
     for (int i = 0; i < m.nb(); ++i) {
       Dinv[i] = MatK<T>::Zero(m.nvOf(i), m.nvOf(i));
@@ -213,6 +219,13 @@ void articulatedInertias(const Model& model, const Kinematics<T>& kin, Articulat
     }
     // U, D⁻¹, U D⁻¹ and Ia, on fixed-size blocks for k = 1, 3, 6
     forJointSize(k, [&](auto K) { articulatedStep(K, kin, art, IA, i, v, k, p >= 0, Ia); });
+    // The coupling with a one-DOF parent that is the previous body.
+    if (k == 1 && p >= 0 && p == i - 1 && model.nvOf(p) == 1) {
+      const auto S = kin.S.col(v - 1);
+      const auto UD = art.UDinv.col(v);
+      art.couple(v) = -((S(0) * UD(0) + S(1) * UD(1) + S(2) * UD(2)) +
+                        (S(3) * UD(3) + S(4) * UD(4) + S(5) * UD(5)));
+    }
     // Ia to the parent: in registers if it is the next body, else into its IA.
     carried = p >= 0 && p == i - 1;
     if (carried)
