@@ -11,8 +11,9 @@
 // with a 6-DOF joint whose S is the base's Plücker transform; D₀ = S₀ᵀ IA₀ S₀, so Alg. 2's
 // Δv₀ = (IA₀)⁻¹(r₀ − Y₀) is the k = 6 case of the same forward step.
 // The same sweeps one column at a time in plain scalar code, without the lane bookkeeping
-// below, are core/impulse_sweeps.hpp: read that first; tests/impulse_sweeps_test.cpp holds
-// this kernel to it for every lane remainder nv mod W.
+// below (and without the links' regrouping, abiBackwardLinks), are core/impulse_sweeps.hpp:
+// read that first; tests/impulse_sweeps_test.cpp holds this kernel to it for every lane
+// remainder nv mod W.
 //
 // Savings: U, D⁻¹ and U D⁻¹ are computed once per configuration (§5.2; core/articulated.hpp).
 // For a unit column e_c at body b only b's ancestors carry a non-zero Y (§5.2), and since M⁻¹
@@ -25,9 +26,9 @@
 // below); blocks run in OpenMP threads (setThreads), each thread reading its own copy of the
 // configuration, which it makes itself in the same parallel region (AbiSolver::configure: one
 // fork per configure + inverse). Multi-DOF joints make D a k×k block. Along runs of one-DOF
-// links both sweeps regroup their recurrences so that one multiply-add, not a dot product, lies
-// between consecutive bodies (abiBackwardLinks, abiForwardLinks): one multiply and one add
-// more per column and body, for a dependency chain about half as long.
+// links both sweeps regroup their recurrences so that from one body's u (or Δq̇) to the next
+// one multiply-add waits, not a dot product (abiBackwardLinks, abiForwardLinks): one multiply
+// and one add more per column and link, for a dependency chain about half as long.
 // Cost: Σ_c (depth(b_c) + b_c) body steps ≈ n²/2 + Σ depth for M⁻¹ (Θ(n²)); Θ(m·nb) for M⁻¹R.
 // Scratch Θ(nb·W) per thread, allocated in the workspace; the sweeps do not allocate.
 // Numbers below DBL_MIN are flushed to zero while the sweeps run (core/fpenv.hpp): an absolute
@@ -67,7 +68,7 @@ inline int omp_thread() {
 // step has four independent FMA chains to hide the latency of the body-to-body recursion
 // (measured on AVX2, Zen 3, n = 2048: 8 and 12 lanes are slower per column, latency-bound;
 // 16 lanes already spill part of Y to L1, 32 spill more). The counting scalar runs one column
-// at a time: its counts are the algorithm's, column by column.
+// at a time: its counts are the kernel's (the links' regrouping included), column by column.
 // Each instruction-set level's module may set its own (MINV_ABI_LANES, CMakeLists.txt); 16 is
 // best at every level measured on Zen 5 (one run per change, each level's time over the
 // unchanged avx512 one, serial n = 256 … 2048): baseline (SSE2) with 8 lanes is no faster,
@@ -287,11 +288,13 @@ MINV_INLINE Lane abiNegDot(const Col& a, const Spatial& Y) {
 // u_i, then, link by link (j = i − 1, i − 2, … while the run goes on),
 //   u_j = r_j − S_jᵀ Y_{j+1} + c_{j+1} u_{j+1},   Y_j = Y_{j+1} + U_{j+1} D_{j+1}⁻¹ u_{j+1},
 // with c_{j+1} = −S_jᵀ U_{j+1} D_{j+1}⁻¹ (art.couple, once per configuration): u_j = r_j − S_jᵀ Y_j
-// regrouped. The dot product now reads Y a body earlier, off the chain: from one u to the next
-// one multiply-add waits, where the dot product and an FMA did (about 11.5 cycles of latency a
-// body instead of 20 on Zen 5). One multiply and one add more per column and body.
-// Measured (Zen 5 guest, bench_abi, serial chain, one thread, 2 rounds alternated): the sweeps
-// 30 % faster at n = 64 … 4096 (4096: 7.27-7.34 -> 5.05-5.17 ms; 1024: 455-476 -> 318-326 us).
+// regrouped. The dot product now reads Y a body earlier: from one u to the next one multiply-add
+// waits, and the chain through Y (a multiply-add, the dot product, the coupling's multiply-add)
+// spans two bodies, where before a dot product and a multiply-add lay between consecutive
+// bodies (by FMA latencies on Zen 5, about 11.5 cycles a body instead of 20). One multiply and
+// one add more per column and link. Measured (Zen 5 guest, bench_abi, serial chain, one thread,
+// 2 rounds alternated): the sweeps 24-31 % faster from n = 64 to 4096 (4096: 7.27-7.34 ->
+// 5.05-5.17 ms; 1024: 455-476 -> 318-326 us; 64: 2.21-2.27 -> 1.64-1.68 us).
 // On exit Y = Y_j + U_j D_j⁻¹ u_j for the run's last body j, what its parent receives; returns j.
 template <class T, int W, bool Unit>
 MINV_INLINE int abiBackwardLinks(const Model& model, const Kinematics<T>& kin,
@@ -511,9 +514,9 @@ struct LaneRows {
 };
 
 // Forward down a run of links from the one-DOF body i, with dv = Δv_λ(i) (unused at a root):
-// Δq̇_i, then, link by link (j = i + 1, i + 2, … ≤ last while the run goes on),
-//   Δq̇_j = D_j⁻¹ u_j − (U_j D_j⁻¹)ᵀ Δv_{j−2} + c_j Δq̇_{j−1},
-//   Δv_{j−1} = Δv_{j−2} + S_{j−1} Δq̇_{j−1},
+// Δq̇_i, then, link by link (j = i + 1, i + 2, … ≤ last while the run goes on), with
+// λ' = λ(j − 1) (j − 2, or λ(i) for the first link; Δv_λ' = 0 at a root):
+//   Δq̇_j = D_j⁻¹ u_j − (U_j D_j⁻¹)ᵀ Δv_λ' + c_j Δq̇_{j−1},   Δv_{j−1} = Δv_λ' + S_{j−1} Δq̇_{j−1},
 // with the same c_j = −(U_j D_j⁻¹)ᵀ S_{j−1}: Δq̇_j = D_j⁻¹ u_j − (U_j D_j⁻¹)ᵀ Δv_{j−1} regrouped as
 // in abiBackwardLinks. Each Δq̇ into ws.u and `rows`. On exit dv = Δv_j of the run's last body
 // j; returns j.
@@ -526,6 +529,9 @@ MINV_INLINE int abiForwardLinks(const Model& model, const Kinematics<T>& kin,
   int v = model.vIdx(i);
   // Δq̇_i = D_i⁻¹ u_i − (U_i D_i⁻¹)ᵀ Δv_λ(i)
   Lane q = art.dinv(v) * ws.u[v];
+  // (At a root Δv_λ(i) = 0, and the first link adds S_i Δq̇_i to it: on the counting scalar six
+  // additions of zero per column. A separate first step instead measured up to 12 % slower in
+  // the sweeps, one round on Zen 5.)
   if (root)
     dv.setZero();
   else
@@ -538,7 +544,8 @@ MINV_INLINE int abiForwardLinks(const Model& model, const Kinematics<T>& kin,
     const auto S = kin.S.col(v);
     Lane qn = art.dinv(v + 1) * ws.u[v + 1] + abiNegDot<Lane>(UD, dv);
     qn += art.couple(v + 1) * q;
-    // Δv_i = Δv_λ(i) + S_i Δq̇_i (kept for a child that is not the next body)
+    // Δv_i = Δv_λ(i) + S_i Δq̇_i (kept for a child that is not the next body: only the run's
+    // first body can have one)
     forRows<Lane>([&](auto r) { dv.row(r) += S(r) * q; });
     if (ws.gather[i]) ws.dv[i] = dv;
     ws.u[v + 1] = qn;

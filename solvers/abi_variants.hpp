@@ -32,7 +32,7 @@ struct Articulated;
 
 // What a level's module exports (symbol kAbiVariantSymbol). `version` must equal
 // kAbiVariantVersion: a module from another build of minv (a stale file) is refused.
-inline constexpr int kAbiVariantVersion = 3;
+inline constexpr int kAbiVariantVersion = 4;  // 4: Articulated::couple
 struct AbiVariantApi {
   int version;         // kAbiVariantVersion of the build that compiled it
   const char* level;   // isaName() of the level it was compiled for
