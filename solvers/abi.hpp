@@ -245,6 +245,15 @@ struct AbiWorkspace {
   int threads() const { return static_cast<int>(wide.size()); }
 };
 
+// −aᵀY for a 6-vector a and Y's six rows, in two halves (a shorter dependency chain).
+template <class Lane, class Col, class Spatial>
+MINV_INLINE Lane abiNegDot(const Col& a, const Spatial& Y) {
+  using T = std::decay_t<decltype(a(0))>;
+  const T s0 = -a(0), s1 = -a(1), s2 = -a(2), s3 = -a(3), s4 = -a(4), s5 = -a(5);
+  return (s0 * Y.row(0) + s1 * Y.row(1) + s2 * Y.row(2)) +
+         (s3 * Y.row(3) + s4 * Y.row(4) + s5 * Y.row(5));
+}
+
 // One body of the backward sweep on Y = Y_i (Y_i + U D⁻¹ u on exit), for K DOFs (K = 0: k).
 // The 6-term dot products go as two halves, a shorter dependency chain.
 template <class T, int W, bool Unit, int K>
@@ -257,13 +266,12 @@ inline void abiBackwardBody(const Kinematics<T>& kin, const Articulated<T>& art,
   for (int j = 0; j < k; ++j) {
     // u = r − S_jᵀ Y, as r + Σ (−S)·Y so that no subtraction waits at the end of the chain
     const auto S = kin.S.col(v + j);
-    const T s0 = -S(0), s1 = -S(1), s2 = -S(2), s3 = -S(3), s4 = -S(4), s5 = -S(5);
     if constexpr (Unit) {
-      u[j] = (s0 * Y.row(0) + s1 * Y.row(1) + s2 * Y.row(2)) +
-             (s3 * Y.row(3) + s4 * Y.row(4) + s5 * Y.row(5));
+      u[j] = abiNegDot<Lane>(S, Y);
       if (static_cast<unsigned>(v + j - c0) < static_cast<unsigned>(width))
         u[j] += ws.e[v + j - c0];
     } else {
+      const T s0 = -S(0), s1 = -S(1), s2 = -S(2), s3 = -S(3), s4 = -S(4), s5 = -S(5);
       u[j] = (ws.u[v + j] + s0 * Y.row(0) + s1 * Y.row(1) + s2 * Y.row(2)) +
              (s3 * Y.row(3) + s4 * Y.row(4) + s5 * Y.row(5));
     }
@@ -273,15 +281,6 @@ inline void abiBackwardBody(const Kinematics<T>& kin, const Articulated<T>& art,
   // Y + Σ_j (U D⁻¹)_j u_j, what the parent receives.
   for (int j = 0; j < k; ++j)
     forRows<Lane>([&](auto r) { Y.row(r) += art.UDinv(r, v + j) * u[j]; });
-}
-
-// −aᵀY for a 6-vector a and Y's six rows, in two halves (a shorter dependency chain).
-template <class Lane, class Col, class Spatial>
-MINV_INLINE Lane abiNegDot(const Col& a, const Spatial& Y) {
-  using T = std::decay_t<decltype(a(0))>;
-  const T s0 = -a(0), s1 = -a(1), s2 = -a(2), s3 = -a(3), s4 = -a(4), s5 = -a(5);
-  return (s0 * Y.row(0) + s1 * Y.row(1) + s2 * Y.row(2)) +
-         (s3 * Y.row(3) + s4 * Y.row(4) + s5 * Y.row(5));
 }
 
 // Backward along a run of links, from the one-DOF body i (parent i − 1, a link) with Y = Y_i:
@@ -303,11 +302,11 @@ MINV_INLINE int abiBackwardLinks(const Model& model, const Kinematics<T>& kin,
   using Lane = typename AbiLanes<T, W>::Lane;
   int v = model.vIdx(i);
   // r_v: a unit impulse in lane v − c0 within the block, else zero; or held in ws.u
-  auto impulse = [&](Lane& u, int v) {
+  auto impulse = [&](Lane& u, int dof) {
     if constexpr (Unit) {
-      if (static_cast<unsigned>(v - c0) < static_cast<unsigned>(width)) u += ws.e[v - c0];
+      if (static_cast<unsigned>(dof - c0) < static_cast<unsigned>(width)) u += ws.e[dof - c0];
     } else {
-      u += ws.u[v];
+      u += ws.u[dof];
     }
   };
   // u_i = r_i − S_iᵀ Y_i

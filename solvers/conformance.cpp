@@ -25,8 +25,29 @@ double rel(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
   return (a - b).norm() / std::max(b.norm(), 1e-300);
 }
 
+// The case's trees side by side, each body's parent renumbered (roots stay −1).
+Model forest(const ConformanceCase& c) {
+  std::vector<int> parent;
+  std::vector<Joint> joints;
+  std::vector<Body> bodies;
+  std::vector<TreeOptions> trees = {c.options};
+  trees.insert(trees.end(), c.beside.begin(), c.beside.end());
+  for (std::size_t k = 0; k < trees.size(); ++k) {
+    const Model t = randomTree(trees[k]);
+    const int offset = static_cast<int>(parent.size());
+    for (int i = 0; i < t.nb(); ++i) {
+      parent.push_back(t.parent(i) < 0 ? -1 : t.parent(i) + offset);
+      joints.push_back(t.joint(i));
+      joints.back().name += "_t" + std::to_string(k);
+      bodies.push_back(t.body(i));
+      bodies.back().name += "_t" + std::to_string(k);
+    }
+  }
+  return Model::create(std::move(parent), std::move(joints), std::move(bodies));
+}
+
 Model buildModel(const ConformanceCase& c) {
-  Model m = randomTree(c.options);
+  Model m = c.beside.empty() ? randomTree(c.options) : forest(c);
   if (!c.via_urdf) return m;
   std::ostringstream xml;
   writeUrdf(m, xml, c.name);
@@ -59,6 +80,16 @@ std::vector<ConformanceCase> conformanceCases(const ConformanceOptions& options)
           if (options.urdf && j == JointSet::Revolute && n <= 100)
             out.push_back({name + "_urdf", o, true});
         }
+  }
+  // Forests: a floating mixed serial tree beside a fixed revolute branched one (n = 32: 21 + 11
+  // links; n = 300: 200 + 100, enough DOFs for abi's two threads).
+  for (int n : {32, 300}) {
+    if (n > options.max_n) continue;
+    const int first = n * 2 / 3;
+    const auto seed = static_cast<std::uint64_t>(2000 + n);
+    TreeOptions a{Topology::Serial, first, seed, true, JointSet::Mixed};
+    TreeOptions b{Topology::Branched, n - first, seed + 1, false, JointSet::Revolute};
+    out.push_back({"forest_mixed_floating_n" + std::to_string(n), a, false, {b}});
   }
   return out;
 }

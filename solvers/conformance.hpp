@@ -5,7 +5,8 @@
 //
 // Cases: random serial and branched trees, fixed and floating base, revolute and mixed
 // (revolute/prismatic/spherical) joints, n ∈ {1, 2, 3, 7, 32, 100, 300} jointed links, and the
-// revolute trees with n ≤ 100 once more after a round trip through URDF. q is a seeded random
+// revolute trees with n ≤ 100 once more after a round trip through URDF, and forests (a floating
+// mixed serial tree beside a fixed revolute branched one, n ∈ {32, 300}). q is a seeded random
 // configuration. References are independent of the solver under test: M from CRBA (itself
 // checked against closed forms and MuJoCo elsewhere) and Xref = M⁻¹ from a dense Cholesky
 // (Eigen's LLT) of that M.
@@ -48,6 +49,8 @@ struct ConformanceCase {
   std::string name;  // e.g. "serial_mixed_floating_n32", "serial_revolute_fixed_n7_urdf"
   TreeOptions options;
   bool via_urdf = false;
+  // Further trees beside the first, each with its own root (parent −1): a forest.
+  std::vector<TreeOptions> beside = {};
 };
 
 // Which cases to run.
