@@ -8,6 +8,8 @@ axis is the total time of its 1000-step run, so per-step means are scaled to 100
 whose run had fewer steps are extrapolated that way and drawn hollow). Points run on more than
 one thread (`--threads`, paths "<path>@<threads>") are drawn dotted in their path's colour. Skipped
 points (status "skipped") are left out."""
+import textwrap
+
 import h5py
 import matplotlib.pyplot as plt
 import numpy as np
@@ -95,7 +97,8 @@ def main():
         bx.set_ylabel("ms per step")
         bx.set_title(f"per-step components, {legs} legs ({legs // 2} segments)")
         bx.legend(fontsize=8)
-    fig.text(0.01, -0.02, prov, fontsize=5)
+    # The provenance under the panels, wrapped to the figure's width.
+    fig.text(0.01, -0.02, "\n".join(textwrap.wrap(prov, 190)), fontsize=5, va="top")
     save(fig, "figure4_centipede")
 
 
