@@ -16,10 +16,13 @@ namespace minv {
 
 // Small per-body steps that a caller's loop must inline whole (GCC and Clang otherwise leave
 // some out of line in long loops, and their results then go through memory).
+// MINV_NOINLINE: a loop kept out of its caller's, so that neither's registers crowd the other's.
 #if defined(__GNUC__)
 #define MINV_INLINE __attribute__((always_inline)) inline
+#define MINV_NOINLINE __attribute__((noinline))
 #else
 #define MINV_INLINE inline
+#define MINV_NOINLINE
 #endif
 
 // A column of a 6×6 spatial matrix for the per-body kernels (core/articulated.hpp). On any
