@@ -35,6 +35,7 @@
 #include <vector>
 
 #include "experiments/lib/budget.hpp"
+#include "experiments/lib/cores.hpp"
 #include "experiments/lib/h5writer.hpp"
 #include "experiments/lib/provenance.hpp"
 #include "experiments/lib/timing.hpp"
@@ -120,6 +121,13 @@ class Collector : public benchmark::ConsoleReporter {
   }
 };
 
+// Each core's speed, measured once; single-threaded benchmarks run on the fastest
+// (experiments/lib/cores.hpp: one core of the 2-vCPU Zen 5 guest is 15 % slower).
+const CorePinning& pinning() {
+  static const CorePinning p;
+  return p;
+}
+
 // The pipeline of one registered solver: configure(q), then inverse (m = 0), inverseUpper
 // (m = kUpper: M⁻¹'s upper triangle only) or solve. `make` replaces the registry's factory (abi
 // at a forced instruction-set level).
@@ -133,6 +141,8 @@ void registerSolver(const std::string& solver, Topology t, int n, int m, int thr
   benchmark::RegisterBenchmark(name.c_str(),
                                [=](benchmark::State& state) {
                                  const Problem& p = problem(t, n);
+                                 // Several threads: every core (then back on the fastest).
+                                 if (threads > 1) pinning().release();
                                  auto s = make ? make() : makeSolver(solver);
                                  s->setThreads(threads);
                                  s->prepare(p.model);
@@ -153,6 +163,7 @@ void registerSolver(const std::string& solver, Topology t, int n, int m, int thr
                                    benchmark::ClobberMemory();
                                  }
                                  s->setThreads(1);
+                                 if (threads > 1) pinning().pinFastest();
                                })
       ->Unit(benchmark::kNanosecond)
       ->UseRealTime();
@@ -283,6 +294,7 @@ void report(bool full, const std::string& out) {
     writeProvenance(*file);
     file->setAttribute("/", "experiment", "perf");
     file->setAttribute("/", "mode", full ? "full" : "quick");
+    file->setAttribute("/", "cores", pinning().summary());
     for (const auto& [name, m] : medians) {
       file->writeVector("runs/" + name + "/repetitions_s", m.reps);
       file->setAttribute("runs/" + name, "median_s", m.median);
@@ -544,6 +556,9 @@ int main(int argc, char** argv) {
   int n = static_cast<int>(rest.size());
   benchmark::Initialize(&n, rest.data());
   if (benchmark::ReportUnrecognizedArguments(n, rest.data())) return 2;
+  // Single-threaded unless a benchmark says otherwise: on the fastest core.
+  std::printf("cores: %s\n", pinning().summary().c_str());
+  pinning().pinFastest();
   registerAll(full);
   Collector collector;
   benchmark::RunSpecifiedBenchmarks(&collector);

@@ -312,6 +312,8 @@ def machine_lines(f):
             "(`-march=x86-64`, SSE2), as Debian compiled DART, Bullet and MuJoCo",
             f"- BLAS: {get('blas_library')}, {get('blas_threads')} thread(s); OpenMP up to "
             f"{get('omp_max_threads')} threads (abi's two-thread runs only)",
+            f"- cores at the start of the run (dependent additions per ns): {get('cores')} "
+            "(experiments/lib/cores.hpp)",
             f"- run: git {get('git_sha')}, {get('date_utc')}, mode {get('mode')}"]
 
 
