@@ -141,7 +141,14 @@ void registerSolver(const std::string& solver, Topology t, int n, int m, int thr
   benchmark::RegisterBenchmark(name.c_str(),
                                [=](benchmark::State& state) {
                                  const Problem& p = problem(t, n);
-                                 // Several threads: every core (then back on the fastest).
+                                 // Several threads: every core (then back on the fastest,
+                                 // also if the benchmark throws).
+                                 struct Repin {
+                                   bool on;
+                                   ~Repin() {
+                                     if (on) pinning().pinFastest();
+                                   }
+                                 } repin{threads > 1};
                                  if (threads > 1) pinning().release();
                                  auto s = make ? make() : makeSolver(solver);
                                  s->setThreads(threads);
@@ -163,7 +170,6 @@ void registerSolver(const std::string& solver, Topology t, int n, int m, int thr
                                    benchmark::ClobberMemory();
                                  }
                                  s->setThreads(1);
-                                 if (threads > 1) pinning().pinFastest();
                                })
       ->Unit(benchmark::kNanosecond)
       ->UseRealTime();

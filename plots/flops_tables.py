@@ -64,7 +64,7 @@ def main():
             "Every count is measured by running the solver's own kernels on the counting scalar "
             "(core/counting.hpp) for serial chains of revolute joints on a fixed base, "
             f"n = {', '.join(str(x) for x in g['nv'][()])}, and fitted exactly by least "
-            f"squares to a·n³ + b·n² + c·n + d from n = {g.attrs.get('poly_fit_from_nv', 1)} on "
+            f"squares to a·n³ + b·n² + c·n + d from n = {g.attrs.get('poly_fit_from_links', 1)} on "
             "(below, a chain has no run of four links for the articulated pass's regrouped "
             "step, core/articulated.hpp, and its counts follow another polynomial). "
             "Divisions, square roots and sin/cos are kept "

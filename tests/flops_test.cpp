@@ -121,8 +121,16 @@ TEST(Flops, KinematicsPerRevoluteBodyIsClosedForm) {
   }
 }
 
-TEST(Flops, CountedGivesTheSameNumbersAsDouble) {
-  const Model model = randomTree({Topology::Branched, 30, 4, true, JointSet::Mixed});
+// On a branched tree of mixed joints (no run of kRun links), and on a serial chain (the
+// articulated pass's regrouped runs, core/articulated.hpp).
+class CountedAndDouble : public ::testing::TestWithParam<TreeOptions> {};
+INSTANTIATE_TEST_SUITE_P(
+    Flops, CountedAndDouble,
+    ::testing::Values(TreeOptions{Topology::Branched, 30, 4, true, JointSet::Mixed},
+                      TreeOptions{Topology::Serial, 30, 4, true, JointSet::Revolute}));
+
+TEST_P(CountedAndDouble, GiveTheSameNumbers) {
+  const Model model = randomTree(GetParam());
   const Eigen::VectorXd q = randomConfiguration(model, 4);
   // The same kernels on double and on Counted.
   Kinematics<double> kd(model);
@@ -142,8 +150,8 @@ TEST(Flops, CountedGivesTheSameNumbersAsDouble) {
   const Eigen::MatrixXd Xcd = Xc.unaryExpr([](const Counted& c) { return c.value(); });
   // Equal up to the order of summation that SIMD code may choose for double.
   EXPECT_LT((Xcd - Xd).norm(), 1e-12 * Xd.norm());
-  // M⁻¹R the same way, for 11 right-hand sides (one lane at a time on Counted; a full and a
-  // partial block on double), both against the inverse times R.
+  // M⁻¹R the same way, for 11 right-hand sides (one lane at a time on Counted; 11 lanes of
+  // one block on double), both against the inverse times R.
   const Eigen::MatrixXd R = Eigen::MatrixXd::Random(model.nv(), 11);
   MatX<double> Yd(model.nv(), 11);
   abiSolve<double>(model, kd, ad, wd, R, Yd);

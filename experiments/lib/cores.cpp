@@ -1,5 +1,7 @@
 #include "experiments/lib/cores.hpp"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
@@ -68,6 +70,10 @@ CorePinning::CorePinning() {
 #if defined(__linux__)
   mask_ = currentMask();
 #endif
+  // OpenMP's threads start now, on every core: a thread keeps the mask it was made with, so a
+  // team first made while this thread is pinned would stay on the one core.
+#pragma omp parallel num_threads(omp_get_max_threads())
+  {}
   speeds_ = measureCoreSpeeds();
   double best = 0;
   for (const CoreSpeed& s : speeds_)
@@ -87,7 +93,7 @@ void CorePinning::release() const {
 }
 
 std::string CorePinning::summary() const {
-  if (speeds_.empty()) return "cores not measured (no affinity control here)";
+  if (speeds_.empty() || fastest_ < 0) return "cores not measured (no affinity control here)";
   std::string s;
   char buf[64];
   for (const CoreSpeed& c : speeds_) {

@@ -21,18 +21,19 @@ struct CoreSpeed {
   double adds_per_ns;  // dependent additions per ns, the best of several short runs
 };
 
-// Every CPU in this thread's affinity mask, measured in turn (about 30 ms in all on 2 cores);
-// the mask is restored after.
+// Every CPU in this thread's affinity mask, measured in turn (about 8 ms a core); the mask is
+// restored after.
 std::vector<CoreSpeed> measureCoreSpeeds();
 
 // The calling thread's affinity mask when made, and the speed of each core in it.
 class CorePinning {
  public:
-  // Records the current mask and measures the cores in it.
+  // Records the current mask, starts OpenMP's threads on it, and measures the cores in it.
   CorePinning();
   // This thread on the fastest core (single-threaded work).
   void pinFastest() const;
-  // This thread back on every CPU of the recorded mask (before OpenMP or BLAS threads start).
+  // This thread back on every CPU of the recorded mask (threads made while it was pinned keep
+  // the pinned mask: OpenMP's are made by the constructor).
   void release() const;
   int fastest() const { return fastest_; }
   const std::vector<CoreSpeed>& speeds() const { return speeds_; }

@@ -188,19 +188,19 @@ void runFlopsSweep(const FlopsSweep& sweep, const std::string& path, std::ostrea
       out.writeVector(config + "/depth_sum", s1);
       out.writeVector(config + "/depth_sq_sum", s2);
       // Bases of the fits: polynomial in nv, and the depth sums. The polynomial is fitted from
-      // nv = kRun + 1 on: a shorter chain has no run of links long enough for the articulated
+      // kRun + 1 links on: a shorter chain has no run of links long enough for the articulated
       // pass's regrouped step (core/articulated.hpp), so its counts follow another polynomial.
       const int P = static_cast<int>(nv.size());
       std::vector<int> from;
       for (int i = 0; i < P; ++i)
-        if (nv[i] > kRun) from.push_back(i);
+        if (sweep.n[i] > kRun) from.push_back(i);
       Eigen::MatrixXd poly(from.size(), 4), depth(P, 4);
       for (int i = 0; i < P; ++i) depth.row(i) << s2[i], s1[i], nv[i], 1;
       for (std::size_t r = 0; r < from.size(); ++r) {
         const double x = nv[from[r]];
         poly.row(r) << x * x * x, x * x, x, 1;
       }
-      out.setAttribute(config, "poly_fit_from_nv", static_cast<std::int64_t>(kRun + 1));
+      out.setAttribute(config, "poly_fit_from_links", static_cast<std::int64_t>(kRun + 1));
       for (const auto& [solver, s] : series) {
         const std::string g = config + "/" + solver;
         out.writeStrings(g + "/stages", s.stages);
