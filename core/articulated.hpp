@@ -259,7 +259,8 @@ MINV_NOINLINE int articulatedLinks(const Model& model, const Kinematics<T>& kin,
 
 // Whether bodies i, i − 1, …, i − kRun + 1 are one-DOF links, each the child of the next, and
 // that one one-DOF. Shorter runs (a centipede's legs) keep the plain step: entered from runs of
-// two links the S = 50 centipede's pass took 7 % longer, from every link 50 % (Zen 5 guest).
+// two links the S = 50 centipede's pass took 7 % longer (Zen 5 guest; 50 % from every link, in
+// a first version that also took the caller's IA and carry by address, out of registers).
 // Measured (bench_abi, serial chain, pinned to one core of the Zen 5 guest, 2 rounds
 // alternated): configure 19.7-19.8 -> 16.0-16.2 us at n = 512, 2.41-2.45 -> 2.04-2.05 at 64,
 // 0.60-0.61 -> 0.53 at 16; the branched tree and the S = 5 centipede's step unchanged.
