@@ -122,7 +122,7 @@ class Collector : public benchmark::ConsoleReporter {
 };
 
 // Each core's speed, measured once; single-threaded benchmarks run on the fastest
-// (experiments/lib/cores.hpp: one core of the 2-vCPU Zen 5 guest is 15 % slower).
+// (experiments/lib/cores.hpp: at times one core of the 2-vCPU Zen 5 guest ran 15 % slower).
 const CorePinning& pinning() {
   static const CorePinning p;
   return p;
