@@ -445,6 +445,57 @@ inline void abiStoreLine(T* dst, const T* src) {
   }
   std::copy_n(src, 8, dst);
 }
+#if defined(__AVX512F__)
+// The same for a line already in a register.
+inline void abiStoreLine(double* dst, __m512d x) {
+  if ((reinterpret_cast<std::uintptr_t>(dst) & 63) == 0)
+    _mm512_stream_pd(dst, x);
+  else
+    _mm512_storeu_pd(dst, x);
+}
+// An 8×8 block of doubles transposed in registers: r[v] (row v) becomes column v. Pairs of
+// rows interleaved, then 128- and 256-bit halves exchanged: 24 shuffles.
+MINV_INLINE void abiTranspose8(__m512d* r) {
+  __m512d t[8], s[8];
+  // t[2k] = (r[2k][0], r[2k+1][0], r[2k][2], …), t[2k+1] the odd entries
+  for (int k = 0; k < 4; ++k) {
+    t[2 * k] = _mm512_unpacklo_pd(r[2 * k], r[2 * k + 1]);
+    t[2 * k + 1] = _mm512_unpackhi_pd(r[2 * k], r[2 * k + 1]);
+  }
+  // s[e], s[4 + e]: entries e and e + 4 of rows 0-3 and of rows 4-7
+  for (int k = 0; k < 2; ++k)
+    for (int o = 0; o < 2; ++o) {
+      s[4 * k + o] = _mm512_shuffle_f64x2(t[4 * k + o], t[4 * k + 2 + o], 0x88);
+      s[4 * k + 2 + o] = _mm512_shuffle_f64x2(t[4 * k + o], t[4 * k + 2 + o], 0xDD);
+    }
+  // columns e and e + 4: rows 0-3 from s[e] beside rows 4-7 from s[4 + e]
+  for (int e = 0; e < 4; ++e) {
+    r[e] = _mm512_shuffle_f64x2(s[e], s[4 + e], 0x88);
+    r[e + 4] = _mm512_shuffle_f64x2(s[e], s[4 + e], 0xDD);
+  }
+}
+#elif defined(__AVX__)
+// The same for a line already in two registers (its first and last four doubles).
+inline void abiStoreLine(double* dst, __m256d lo, __m256d hi) {
+  if ((reinterpret_cast<std::uintptr_t>(dst) & 63) == 0) {
+    _mm256_stream_pd(dst, lo);
+    _mm256_stream_pd(dst + 4, hi);
+  } else {
+    _mm256_storeu_pd(dst, lo);
+    _mm256_storeu_pd(dst + 4, hi);
+  }
+}
+// A 4×4 block of doubles transposed in registers: r[v] (row v) becomes column v. Pairs of rows
+// interleaved, then 128-bit halves exchanged: 8 shuffles.
+MINV_INLINE void abiTranspose4(__m256d* r) {
+  const __m256d t0 = _mm256_unpacklo_pd(r[0], r[1]), t1 = _mm256_unpackhi_pd(r[0], r[1]);
+  const __m256d t2 = _mm256_unpacklo_pd(r[2], r[3]), t3 = _mm256_unpackhi_pd(r[2], r[3]);
+  r[0] = _mm256_permute2f128_pd(t0, t2, 0x20);
+  r[1] = _mm256_permute2f128_pd(t1, t3, 0x20);
+  r[2] = _mm256_permute2f128_pd(t0, t2, 0x31);
+  r[3] = _mm256_permute2f128_pd(t1, t3, 0x31);
+}
+#endif
 // Orders the non-temporal stores before anything that follows (a thread's join included).
 template <class T>
 inline void abiStoreFence() {
@@ -501,10 +552,42 @@ struct LaneRows {
         if (((v + j + 1) & 7) == 0 && v + j < tiles) tile(u, v + j - 7);
   }
 
-  // Rows v0 … v0+7 of the block's columns, lanes to columns.
+  // Rows v0 … v0+7 of the block's columns, lanes to columns. Transposed in registers on AVX-512
+  // and AVX; gathered element by element (128 scalar loads and 16 lines through the stack) the
+  // pipeline was slower (Zen 5 guest, bench_abi pinned to one core, 3 rounds alternated): serial
+  // 3-4 % at n = 256, 3-8 % at 1024, 1-11 % at 2048, within noise at 4096 (-4 … +6 %); branched
+  // 5-8 % at 512; the avx2 module 5-10 % at 256 and 2-12 % at 4096.
   template <class Lanes>
   void tile(const Lanes& u, int v0) const {
     constexpr int W = std::decay_t<decltype(u[0])>::SizeAtCompileTime;
+#if defined(__AVX512F__)
+    // On AVX-512, eight lanes at a time transposed in registers (abiTranspose8).
+    if constexpr (std::is_same_v<T, double> && W % 8 == 0) {
+      for (int h = 0; h < W && h < width; h += 8) {
+        __m512d r[8];
+        for (int v = 0; v < 8; ++v) r[v] = _mm512_loadu_pd(u[v0 + v].data() + h);
+        abiTranspose8(r);
+        for (int w = 0; w < 8 && h + w < width; ++w) abiStoreLine(col + v0 + (h + w) * ld, r[w]);
+      }
+      return;
+    }
+#elif defined(__AVX__)
+    // On AVX, four lanes at a time: rows 0-3 and 4-7 transposed in registers (abiTranspose4).
+    if constexpr (std::is_same_v<T, double> && W % 4 == 0) {
+      for (int h = 0; h < W && h < width; h += 4) {
+        __m256d a[4], b[4];
+        for (int v = 0; v < 4; ++v) {
+          a[v] = _mm256_loadu_pd(u[v0 + v].data() + h);
+          b[v] = _mm256_loadu_pd(u[v0 + 4 + v].data() + h);
+        }
+        abiTranspose4(a);
+        abiTranspose4(b);
+        for (int w = 0; w < 4 && h + w < width; ++w)
+          abiStoreLine(col + v0 + (h + w) * ld, a[w], b[w]);
+      }
+      return;
+    }
+#endif
     T t[W][8];
     for (int v = 0; v < 8; ++v)
       for (int w = 0; w < W; ++w) t[w][v] = u[v0 + v](w);
