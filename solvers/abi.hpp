@@ -495,6 +495,14 @@ MINV_INLINE void abiTranspose4(__m256d* r) {
   r[2] = _mm256_permute2f128_pd(t0, t2, 0x31);
   r[3] = _mm256_permute2f128_pd(t1, t3, 0x31);
 }
+#elif defined(__SSE2__)
+// The same for a line already in four registers.
+inline void abiStoreLine(double* dst, const __m128d* x) {
+  if ((reinterpret_cast<std::uintptr_t>(dst) & 63) == 0)
+    for (int k = 0; k < 4; ++k) _mm_stream_pd(dst + 2 * k, x[k]);
+  else
+    for (int k = 0; k < 4; ++k) _mm_storeu_pd(dst + 2 * k, x[k]);
+}
 #endif
 // Orders the non-temporal stores before anything that follows (a thread's join included).
 template <class T>
@@ -552,11 +560,12 @@ struct LaneRows {
         if (((v + j + 1) & 7) == 0 && v + j < tiles) tile(u, v + j - 7);
   }
 
-  // Rows v0 … v0+7 of the block's columns, lanes to columns. Transposed in registers on AVX-512
-  // and AVX; gathered element by element (128 scalar loads and 16 lines through the stack) the
-  // pipeline was slower (Zen 5 guest, bench_abi pinned to one core, 3 rounds alternated): serial
-  // 3-4 % at n = 256, 3-8 % at 1024, 1-11 % at 2048, within noise at 4096 (-4 … +6 %); branched
-  // 5-8 % at 512; the avx2 module 5-10 % at 256 and 2-12 % at 4096.
+  // Rows v0 … v0+7 of the block's columns, lanes to columns. Transposed in registers on AVX-512,
+  // AVX and SSE2; gathered element by element (128 scalar loads and 16 lines through the stack)
+  // the pipeline was slower (Zen 5 guest, bench_abi pinned to one core, 3 rounds alternated):
+  // serial 3-4 % at n = 256, 3-8 % at 1024, 1-11 % at 2048, within noise at 4096 (-4 … +6 %);
+  // branched 5-8 % at 512; the avx2 module 5-10 % at 256 and 2-12 % at 4096; the baseline
+  // (SSE2) module 1-8 % from 256 to 1024 and -1 … 7 % at 2048 (abi-generic).
   template <class Lanes>
   void tile(const Lanes& u, int v0) const {
     constexpr int W = std::decay_t<decltype(u[0])>::SizeAtCompileTime;
@@ -584,6 +593,22 @@ struct LaneRows {
         abiTranspose4(b);
         for (int w = 0; w < 4 && h + w < width; ++w)
           abiStoreLine(col + v0 + (h + w) * ld, a[w], b[w]);
+      }
+      return;
+    }
+#elif defined(__SSE2__)
+    // On SSE2, two lanes at a time: pairs of rows interleaved into two columns' entries.
+    if constexpr (std::is_same_v<T, double> && W % 2 == 0) {
+      for (int h = 0; h < W && h < width; h += 2) {
+        __m128d a[4], b[4];
+        for (int k = 0; k < 4; ++k) {
+          const __m128d r0 = _mm_loadu_pd(u[v0 + 2 * k].data() + h);
+          const __m128d r1 = _mm_loadu_pd(u[v0 + 2 * k + 1].data() + h);
+          a[k] = _mm_unpacklo_pd(r0, r1);
+          b[k] = _mm_unpackhi_pd(r0, r1);
+        }
+        abiStoreLine(col + v0 + h * ld, a);
+        if (h + 1 < width) abiStoreLine(col + v0 + (h + 1) * ld, b);
       }
       return;
     }
