@@ -19,7 +19,8 @@
 // For a unit column e_c at body b only b's ancestors carry a non-zero Y (§5.2), and since M⁻¹
 // is symmetric only the rows of bodies 0 … b are needed (bodies are numbered parent first, so
 // their Δv never needs a later body): both sweeps stop at b, and each block writes its
-// columns above the diagonal and, by symmetry, its rows left of it. Columns go in blocks of W lanes
+// columns above the diagonal and, by symmetry, its rows left of it (on AVX-512 two blocks at a
+// time, their forward sweeps in turn: abiInverseBlockPair). Columns go in blocks of W lanes
 // (W = kAbiLanes<T>: 16 for double, 1 for the counting scalar), one lane per column, so every
 // update is a W-wide vector operation; along a chain Y and Δv pass from body to body in local
 // variables, not the workspace (in registers where a row is one or two vectors: VectorLanes
@@ -231,7 +232,7 @@ struct AbiLanes {
 template <class T>
 struct AbiWorkspace {
   static constexpr int kHalf = kAbiLanes<T> > 1 ? kAbiLanes<T> / 2 : 1;
-  std::vector<AbiLanes<T, kAbiLanes<T>>> wide;
+  std::vector<AbiLanes<T, kAbiLanes<T>>> wide, wide2;  // wide2: a pair's second block
   std::vector<AbiLanes<T, kHalf>> half;
   std::vector<AbiLanes<T, 1>> narrow;
 
@@ -240,6 +241,7 @@ struct AbiWorkspace {
 
   explicit AbiWorkspace(const Model& m, int threads = 1)
       : wide(threads, AbiLanes<T, kAbiLanes<T>>(m)),
+        wide2(threads, AbiLanes<T, kAbiLanes<T>>(m)),
         half(threads, AbiLanes<T, kHalf>(m)),
         narrow(threads, AbiLanes<T, 1>(m)) {}
   int threads() const { return static_cast<int>(wide.size()); }
@@ -626,26 +628,31 @@ struct LaneRows {
 //   Δq̇_j = D_j⁻¹ u_j − (U_j D_j⁻¹)ᵀ Δv_λ' + c_j Δq̇_{j−1},   Δv_{j−1} = Δv_λ' + S_{j−1} Δq̇_{j−1},
 // with the same c_j = −(U_j D_j⁻¹)ᵀ S_{j−1}: Δq̇_j = D_j⁻¹ u_j − (U_j D_j⁻¹)ᵀ Δv_{j−1} regrouped as
 // in abiBackwardLinks. Each Δq̇ into ws.u and `rows`. On exit dv = Δv_j of the run's last body
-// j; returns j.
+// j; returns j. A sweep taken in pieces (abiInverseBlockPair) stops at `end` < last: if the run
+// goes on past it, `open` is set, q = Δq̇_end and dv = Δv_λ(end) are left as the loop has them,
+// and the next piece resumes there (`resume`, from i = end): the same operations as in one piece.
 template <class T, int W>
 MINV_INLINE int abiForwardLinks(const Model& model, const Kinematics<T>& kin,
                                 const Articulated<T>& art, AbiLanes<T, W>& ws,
-                                typename AbiLanes<T, W>::Spatial& dv, int i, int last, bool root,
-                                const LaneRows<T>& rows) {
+                                typename AbiLanes<T, W>::Spatial& dv,
+                                typename AbiLanes<T, W>::Lane& q, int i, int last, int end,
+                                bool resume, bool root, bool& open, const LaneRows<T>& rows) {
   using Lane = typename AbiLanes<T, W>::Lane;
   int v = model.vIdx(i);
-  // Δq̇_i = D_i⁻¹ u_i − (U_i D_i⁻¹)ᵀ Δv_λ(i)
-  Lane q = art.dinv(v) * ws.u[v];
-  // (At a root Δv_λ(i) = 0, and the first link adds S_i Δq̇_i to it: on the counting scalar six
-  // additions of zero per column. A separate first step instead measured up to 12 % slower in
-  // the sweeps, one round on Zen 5.)
-  if (root)
-    dv.setZero();
-  else
-    q += abiNegDot<Lane>(art.UDinv.col(v), dv);
-  ws.u[v] = q;
-  rows.store(ws.u, v, 1);
-  for (; i + 1 <= last && ws.link[i + 1]; ++i, ++v) {
+  if (!resume) {
+    // Δq̇_i = D_i⁻¹ u_i − (U_i D_i⁻¹)ᵀ Δv_λ(i)
+    q = art.dinv(v) * ws.u[v];
+    // (At a root Δv_λ(i) = 0, and the first link adds S_i Δq̇_i to it: on the counting scalar
+    // six additions of zero per column. A separate first step instead measured up to 12 %
+    // slower in the sweeps, one round on Zen 5.)
+    if (root)
+      dv.setZero();
+    else
+      q += abiNegDot<Lane>(art.UDinv.col(v), dv);
+    ws.u[v] = q;
+    rows.store(ws.u, v, 1);
+  }
+  for (; i + 1 <= end && ws.link[i + 1]; ++i, ++v) {
     // Δq̇_{i+1} from Δv_λ(i) and Δq̇_i
     const auto UD = art.UDinv.col(v + 1);
     const auto S = kin.S.col(v);
@@ -659,25 +666,52 @@ MINV_INLINE int abiForwardLinks(const Model& model, const Kinematics<T>& kin,
     rows.store(ws.u, v + 1, 1);
     q = qn;
   }
+  // The run goes on in the next piece.
+  open = i < last && ws.link[i + 1];
+  if (open) return i;
   // Δv of the run's last body.
   forRows<Lane>([&](auto r) { dv.row(r) += kin.S(r, v) * q; });
   return i;
 }
 
-// Forward sweep over bodies 0 … last: Δq̇_i = D_i⁻¹ u_i − (U_i D_i⁻¹)ᵀ Δv_λ(i), left in ws.u
-// (and in `rows`), and Δv_i = Δv_λ(i) + S_i Δq̇_i.
+// What the forward sweep hands from one piece to the next (abiForwardRange): Δv of the piece's
+// last body, or, where a run of links goes on (`open`), Δv of its parent and its Δq̇ (q).
 template <class T, int W>
-MINV_FLATTEN void abiForward(const Model& model, const Kinematics<T>& kin,
-                             const Articulated<T>& art, AbiLanes<T, W>& ws, int last,
-                             LaneRows<T> rows = {}) {
-  auto dv = AbiLanes<T, W>::Spatial::Zero();  // Δv of the current body; of body i − 1 on entry
-  for (int i = 0; i <= last; ++i) {
+struct ForwardCarry {
+  typename AbiLanes<T, W>::Spatial dv = AbiLanes<T, W>::Spatial::Zero();
+  typename AbiLanes<T, W>::Lane q = AbiLanes<T, W>::Lane::Zero();
+  bool open = false;
+};
+
+// Forward sweep over bodies first … end of a sweep that stops at `last`:
+// Δq̇_i = D_i⁻¹ u_i − (U_i D_i⁻¹)ᵀ Δv_λ(i), left in ws.u (and in `rows`), and
+// Δv_i = Δv_λ(i) + S_i Δq̇_i; `carry` from the piece before (zero for the first) and to the next.
+// Out of line, the one forward sweep of every block, whole or in pieces: each call keeps its
+// carry in registers (with the pieces of two blocks inlined into one function the branched
+// tree's pairs ran 30-50 % slower, Zen 5; through one more inlined helper taking the carry by
+// reference, Δv stayed on the stack and every sweep ran 15-90 % slower), and a pair's blocks
+// and a single block run the same machine code, so that they agree bit for bit (inlined into
+// each caller, FMA contraction differed between them in the last bits).
+template <class T, int W>
+__attribute__((noinline)) MINV_FLATTEN void abiForwardRange(
+    const Model& model, const Kinematics<T>& kin, const Articulated<T>& art, AbiLanes<T, W>& ws,
+    int first, int end, int last, ForwardCarry<T, W>& carry, const LaneRows<T>& rows) {
+  auto dv = carry.dv;  // Δv of the current body; of body i − 1 on entry
+  auto q = carry.q;
+  bool open = carry.open;
+  int i = first;
+  // A run of links cut at first − 1: resumed.
+  if (open)
+    i = abiForwardLinks<T, W>(model, kin, art, ws, dv, q, first - 1, last, end, true, false, open,
+                              rows) +
+        1;
+  for (; i <= end; ++i) {
     const int v = model.vIdx(i), k = model.nvOf(i), p = model.parent(i);
     // Δv_λ(i): carried from body i − 1 along a chain, else read from memory.
     if (p >= 0 && p != i - 1) dv = ws.dv[p];
     // A one-DOF body above a run of links: the run, its chain shortened (abiForwardLinks).
     if (k == 1 && i + 1 <= last && ws.link[i + 1]) {
-      i = abiForwardLinks<T, W>(model, kin, art, ws, dv, i, last, p < 0, rows);
+      i = abiForwardLinks<T, W>(model, kin, art, ws, dv, q, i, last, end, false, p < 0, open, rows);
       continue;
     }
     // Δq̇_i and Δv_i.
@@ -689,6 +723,32 @@ MINV_FLATTEN void abiForward(const Model& model, const Kinematics<T>& kin,
     // Kept in memory for a child that is not the next body.
     if (ws.gather[i]) ws.dv[i] = dv;
   }
+  carry.dv = dv, carry.q = q, carry.open = open;
+}
+
+// Forward sweep over bodies 0 … last in one piece.
+template <class T, int W>
+MINV_FLATTEN void abiForward(const Model& model, const Kinematics<T>& kin,
+                             const Articulated<T>& art, AbiLanes<T, W>& ws, int last,
+                             LaneRows<T> rows = {}) {
+  ForwardCarry<T, W> carry;
+  abiForwardRange<T, W>(model, kin, art, ws, 0, last, last, carry, rows);
+}
+
+// What a block's forward sweep left unwritten: the rows of a last partial tile above the
+// diagonal, and the diagonal tile (its upper triangle, mirrored so that X is exactly symmetric,
+// unless `upper`).
+template <class T, int W>
+MINV_INLINE void abiBlockTail(const AbiLanes<T, W>& ws, int c0, int width, T* x, std::size_t ld,
+                              bool upper) {
+  const int tiles = c0 / 8 * 8;
+  for (int w = 0; w < width; ++w)
+    for (int v = tiles; v < c0; ++v) x[v + (c0 + w) * ld] = ws.u[v](w);
+  for (int w = 0; w < width; ++w)
+    for (int v = c0; v <= c0 + w; ++v) {
+      x[v + (c0 + w) * ld] = ws.u[v](w);
+      if (!upper) x[c0 + w + v * ld] = ws.u[v](w);
+    }
 }
 
 // Columns c0 … c0+W−1 (those below nv) of M⁻¹: Δq̇ of lane w for the rows of bodies
@@ -716,15 +776,50 @@ MINV_FLATTEN void abiInverseBlock(const Model& model, const Kinematics<T>& kin,
       model, kin, art, ws, last,
       LaneRows<T>{upper ? nullptr : x + c0, ld, c0, width, stream, x + c0 * ld, tiles});
   mark("velocity updates");
-  // The rows of a last partial tile above the diagonal.
-  for (int w = 0; w < width; ++w)
-    for (int v = tiles; v < c0; ++v) x[v + (c0 + w) * ld] = ws.u[v](w);
-  // The diagonal tile: its upper triangle, mirrored so that X is exactly symmetric.
-  for (int w = 0; w < width; ++w)
-    for (int v = c0; v <= c0 + w; ++v) {
-      x[v + (c0 + w) * ld] = ws.u[v](w);
-      if (!upper) x[c0 + w + v * ld] = ws.u[v](w);
-    }
+  abiBlockTail<T, W>(ws, c0, width, x, ld, upper);
+}
+
+// Two adjacent full blocks, c0 … c0+2W−1: both backward sweeps, then their forward sweeps in
+// turn, kAbiPairChunk bodies at a time (a run of links cut between pieces is resumed, so every
+// entry takes the same operations as in abiInverseBlock), so that the rows of both blocks in
+// one column of X (2W contiguous entries) are written close together in time. Written one block
+// at a time, each column gets 2 lines per sweep, 32 KB apart at n = 4096: that store pattern
+// alone took 6.8 ms at n = 4096 against 4.4 ms in pairs (chunks of 16-64 bodies alike, 4 blocks
+// 4.0 ms) and 3.5-3.7 for n² doubles streamed in order (Zen 5 guest, a probe with no
+// arithmetic). In abi (pinned to one core, 3 rounds alternated with one block at a time): serial
+// pipeline 12-19 % faster at n = 256, 19-26 % at 512, 19-24 % at 1024, 11-17 % at 2048, -1 …
+// 11 % at 4096; two threads 7-19 % faster from 256 to 2048; branched trees -4 … 3 %. Only where
+// a block's lanes are vectors held in registers (VectorLanes: the avx512 module): with Eigen
+// arrays (avx2, baseline) pairs were 6-21 % slower at n = 1024. From nv = kAbiPairMin: below it
+// X stays in the caches and pairs gained nothing (n = 64: 0-5 % slower).
+inline constexpr int kAbiPairChunk = 32;
+template <class T, int W>
+inline constexpr bool kAbiPairs = kVectorLanes<LaneT<T, W>>;
+inline constexpr int kAbiPairMin = 256;
+template <class T, int W, class Out, class Mark>
+MINV_FLATTEN void abiInverseBlockPair(const Model& model, const Kinematics<T>& kin,
+                                      const Articulated<T>& art, AbiLanes<T, W>& wa,
+                                      AbiLanes<T, W>& wb, int c0, Out& X, Mark& mark, bool upper,
+                                      bool stream) {
+  const int c1 = c0 + W;
+  const int lastA = model.dofBody(c1 - 1), lastB = model.dofBody(c1 + W - 1);
+  const std::size_t ld = X.outerStride();
+  T* x = X.data();
+  abiBackward<T, W, true>(model, kin, art, wa, lastA, c0, W);
+  abiBackward<T, W, true>(model, kin, art, wb, lastB, c1, W);
+  mark("impulse propagation");
+  const LaneRows<T> ra{upper ? nullptr : x + c0, ld, c0, W, stream, x + c0 * ld, c0 / 8 * 8};
+  const LaneRows<T> rb{upper ? nullptr : x + c1, ld, c1, W, stream, x + c1 * ld, c1 / 8 * 8};
+  ForwardCarry<T, W> ca, cb;
+  for (int first = 0; first <= lastA; first += kAbiPairChunk) {
+    const int end = std::min(first + kAbiPairChunk - 1, lastA);
+    abiForwardRange<T, W>(model, kin, art, wa, first, end, lastA, ca, ra);
+    abiForwardRange<T, W>(model, kin, art, wb, first, end, lastB, cb, rb);
+  }
+  abiForwardRange<T, W>(model, kin, art, wb, lastA + 1, lastB, lastB, cb, rb);
+  mark("velocity updates");
+  abiBlockTail<T, W>(wa, c0, W, x, ld, upper);
+  abiBlockTail<T, W>(wb, c1, W, x, ld, upper);
 }
 
 // What the sweeps read of a configuration (S, U D⁻¹, D⁻¹), per thread: thread t reads copy t,
@@ -764,12 +859,25 @@ void abiInverse(const Model& model, AbiConfigurations<T> config, AbiWorkspace<T>
       abiInverseBlock<T, W>(model, kin, art, ws.wide[thread], b * W, Minv, mk, upper,
                             ws.stream_rows);
   };
+  // Full blocks (W columns) in pairs (abiInverseBlockPair) where rows are mirrored: unit b is
+  // blocks 2b and 2b + 1 while both are full, else one block.
+  const bool pairs = kAbiPairs<T, W> && !upper && nv >= kAbiPairMin;
+  const int full = nv / W, paired = pairs ? full / 2 : 0;
+  const int units = blocks - paired;
+  auto unit = [&](int b, int thread, auto& mk) {
+    if (b < paired) {
+      abiInverseBlockPair<T, W>(model, config.kin(thread), config.art(thread), ws.wide[thread],
+                                ws.wide2[thread], 2 * b * W, Minv, mk, upper, ws.stream_rows);
+      return;
+    }
+    block(b + paired, thread, mk);
+  };
   // Subnormals flushed to zero on every thread (core/fpenv.hpp): far entries of a long chain
   // underflow, and on Intel cores each operation on them takes a microcode assist.
   if (ws.threads() == 1 || !std::is_same_v<std::decay_t<Mark>, NoMark>) {
     config.ready(0);
     FlushSubnormals flush;
-    for (int b = 0; b < blocks; ++b) block(b, 0, mark);
+    for (int b = 0; b < units; ++b) unit(b, 0, mark);
     abiStoreFence<T>();
     return;
   }
@@ -784,7 +892,7 @@ void abiInverse(const Model& model, AbiConfigurations<T> config, AbiWorkspace<T>
     // order, so that each thread wrote the same lines every call, they took as long at n = 512
     // and 10 % longer at 1024 and 2048 on two threads: Zen 5 guest, 6 rounds alternated.)
 #pragma omp for schedule(dynamic, 1) nowait
-    for (int r = 0; r < blocks; ++r) block(blocks - 1 - r, omp_thread(), none);
+    for (int r = 0; r < units; ++r) unit(units - 1 - r, omp_thread(), none);
     abiStoreFence<T>();
   }
 }

@@ -288,6 +288,44 @@ TEST(ImpulseSweeps, AbiInverseMatchesReference) {
     unsetenv("MINV_ABI_ROWS");
 }
 
+// abi's inverse() takes full blocks in pairs at level avx512 from nv = 256 (kAbiPairs,
+// kAbiPairMin), their forward sweeps in pieces of kAbiPairChunk bodies (solvers/abi.hpp,
+// abiInverseBlockPair); inverseUpper() takes one block at a time in one piece. A run of links cut
+// between pieces is resumed, not restarted, so both compute every entry with the same operations:
+// their upper triangles agree bit for bit, at every level, on trees long enough for several pieces
+// (a restarted run would differ in the last bits).
+TEST(ImpulseSweeps, AbiPairedBlocksMatchSingleBlocksExactly) {
+  ASSERT_FALSE(abiLevelsHere().empty());
+  std::vector<Case> big;
+  big.push_back(makeCase("serial", "serial_revolute_n293",
+                         randomTree({Topology::Serial, 293, 7, false, JointSet::Revolute}), 7));
+  big.push_back(makeCase("branched", "branched_mixed_floating_n270",
+                         randomTree({Topology::Branched, 270, 8, true, JointSet::Mixed}), 8));
+  big.push_back(makeCase("serial", "serial_mixed_floating_n260",
+                         randomTree({Topology::Serial, 260, 9, true, JointSet::Mixed}), 9));
+  big.push_back(makeCase(
+      "centipede", "centipede_spherical_S30",
+      makeCentipede({.segments = 30, .segment_joint = SegmentJoint::Spherical}).model, 10));
+  for (const Case& c : big) {
+    const int n = c.model.nv();
+    ASSERT_GE(n, 256) << c.name;
+    for (Isa level : abiLevelsHere()) {
+      auto abi = makeAbiAt(level);
+      abi->prepare(c.model);
+      abi->configure(c.q);
+      Eigen::MatrixXd X(n, n), U = Eigen::MatrixXd::Zero(n, n);
+      abi->inverse(X);
+      abi->inverseUpper(U);
+      int differ = 0;
+      for (int j = 0; j < n; ++j)
+        for (int i = 0; i <= j; ++i) differ += X(i, j) != U(i, j) || X(j, i) != X(i, j);
+      EXPECT_EQ(differ, 0) << isaName(level) << " " << c.name << " nv=" << n;
+      // And both are M⁻¹.
+      EXPECT_LE(relativeError(X, c.M.inverse()), c.tol) << isaName(level) << " " << c.name;
+    }
+  }
+}
+
 // abi's solve(R) against the reference's response to each column of R.
 TEST(ImpulseSweeps, AbiSolveMatchesReference) {
   ASSERT_FALSE(abiLevelsHere().empty());
