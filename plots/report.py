@@ -218,7 +218,12 @@ def main():
         lines += [f"This machine has {cores} logical cores, shared with other work while the "
                   "sweep ran; 4 threads on it are oversubscribed (the paper ran 4 threads on 2 "
                   "physical cores with hyper-threading). Treat the 4-thread numbers as an upper "
-                  "bound on what oversubscription costs, not as a scaling measurement.", ""]
+                  "bound on what oversubscription costs, not as a scaling measurement."]
+        if "cores" in troot:
+            lines[-1] += (" The cores' speeds when the sweep started (dependent additions "
+                          f"per ns): {troot['cores']}; points on several threads run on every "
+                          "core.")
+        lines += [""]
     lines += ["## Scaling exponents", ""]
     figure(lines, "exponents", "Fitted exponents of time vs n (pipeline family)")
     if have_timing:

@@ -11,6 +11,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "experiments/lib/cores.hpp"
 #include "experiments/lib/h5writer.hpp"
 #include "experiments/lib/provenance.hpp"
 #include "generators/random_tree.hpp"
@@ -133,6 +134,12 @@ void writePointAttributes(H5Writer& h5, const std::string& g, const TimingPoint&
 SweepStats runTimingSweep(const TimingSweep& sweep, Shard shard, const std::string& path,
                           const MeasureFn& measure, std::ostream& log) {
   setBaselineThreads();
+  // Each core's speed, measured once; one-thread points run on the fastest core, points on
+  // several threads on every core (experiments/lib/cores.hpp: a VM's cores need not be equal,
+  // and a one-thread point on the slower one made Figure 3's two-thread speed-up look
+  // superlinear, 2.03× at n = 1024 on the 2-vCPU Zen 5 guest).
+  static const CorePinning pinning;
+  log << "cores: " << pinning.summary() << std::endl;
   const std::vector<TimingPoint> all = sweepPoints(sweep);
   const std::vector<TimingPoint> points = shardPoints(all, shard);
   H5Writer h5 = H5Writer::append(path);
@@ -145,6 +152,7 @@ SweepStats runTimingSweep(const TimingSweep& sweep, Shard shard, const std::stri
   h5.setAttribute("/", "shard", std::to_string(shard.index) + "/" + std::to_string(shard.count));
   h5.setAttribute("/", "timer", "Google Benchmark 1.7.1, real time per iteration");
   writeProvenance(h5, "/");
+  h5.setAttribute("/", "cores", pinning.summary());
   h5.createGroup("points");
   h5.flush();
 
@@ -207,7 +215,12 @@ SweepStats runTimingSweep(const TimingSweep& sweep, Shard shard, const std::stri
     const int solver_threads = solver->threads();
     // Provenance now, so blas_threads/omp_max_threads are those of the measurement.
     Provenance prov = collectProvenance();
+    if (p.threads > 1)
+      pinning.release();
+    else
+      pinning.pinFastest();
     const Measurement meas = measure(p.name(), body, sweep);
+    pinning.release();
     solver.reset();
     setBaselineThreads();
     // After a point on several threads, a pause: OpenBLAS's idle workers spin for about 0.1 s
