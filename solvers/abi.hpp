@@ -517,7 +517,8 @@ inline void abiStoreFence() {
 // - rows: lane w of DOF v < end to x[w + v·ld], for the first `width` lanes (x = nullptr:
 //   nowhere); with `stream`, whole blocks as full lines without reading them (abiStoreLine);
 // - columns: once DOFs v0 … v0+7 < tiles are done, lane w's eight values to col[v0 + w·ld],
-//   one full line per lane through a small transposing buffer (col = nullptr: nowhere).
+//   one full line per lane, transposed in registers (through a small buffer on other scalars;
+//   col = nullptr: nowhere).
 // Measured dead end: the backward sweeps write nothing, so the upper half of a block's 8-row
 // groups was deferred into the next block's backward sweep (each group stored just before that
 // sweep overwrote its Δq̇). With the rows stored plainly (then Zen 5's choice) the blocks got
@@ -623,7 +624,7 @@ struct LaneRows {
 };
 
 // Forward down a run of links from the one-DOF body i, with dv = Δv_λ(i) (unused at a root):
-// Δq̇_i, then, link by link (j = i + 1, i + 2, … ≤ last while the run goes on), with
+// Δq̇_i, then, link by link (j = i + 1, i + 2, … ≤ end while the run goes on), with
 // λ' = λ(j − 1) (j − 2, or λ(i) for the first link; Δv_λ' = 0 at a root):
 //   Δq̇_j = D_j⁻¹ u_j − (U_j D_j⁻¹)ᵀ Δv_λ' + c_j Δq̇_{j−1},   Δv_{j−1} = Δv_λ' + S_{j−1} Δq̇_{j−1},
 // with the same c_j = −(U_j D_j⁻¹)ᵀ S_{j−1}: Δq̇_j = D_j⁻¹ u_j − (U_j D_j⁻¹)ᵀ Δv_{j−1} regrouped as
@@ -887,10 +888,12 @@ void abiInverse(const Model& model, AbiConfigurations<T> config, AbiWorkspace<T>
     config.ready(omp_thread());
     FlushSubnormals flush;
     NoMark none;
-    // Blocks are independent and write disjoint parts of Minv; later ones cost more: the
-    // costliest first, handed out as threads come free. (Dealt out instead in a fixed snake
-    // order, so that each thread wrote the same lines every call, they took as long at n = 512
-    // and 10 % longer at 1024 and 2048 on two threads: Zen 5 guest, 6 rounds alternated.)
+    // Units (pairs, then single blocks) are independent and write disjoint parts of Minv;
+    // later blocks cost more: the last units first, handed out as threads come free (the one
+    // or two single blocks after the pairs, each about half a pair, go out before the last
+    // pair). (Blocks dealt out instead in a fixed snake order, so that each thread wrote the
+    // same lines every call, took as long at n = 512 and 10 % longer at 1024 and 2048 on two
+    // threads: Zen 5 guest, 6 rounds alternated.)
 #pragma omp for schedule(dynamic, 1) nowait
     for (int r = 0; r < units; ++r) unit(units - 1 - r, omp_thread(), none);
     abiStoreFence<T>();

@@ -133,12 +133,13 @@ void writePointAttributes(H5Writer& h5, const std::string& g, const TimingPoint&
 
 SweepStats runTimingSweep(const TimingSweep& sweep, Shard shard, const std::string& path,
                           const MeasureFn& measure, std::ostream& log) {
-  setBaselineThreads();
-  // Each core's speed, measured once; one-thread points run on the fastest core, points on
+  // Each core's speed, measured by every sweep (before OpenMP is held to one thread, so that
+  // its workers start on every core); one-thread points run on the fastest core, points on
   // several threads on every core (experiments/lib/cores.hpp: a VM's cores need not be equal,
   // and a one-thread point on the slower one made Figure 3's two-thread speed-up look
   // superlinear, 2.03× at n = 1024 on the 2-vCPU Zen 5 guest).
-  static const CorePinning pinning;
+  const CorePinning pinning;
+  setBaselineThreads();
   log << "cores: " << pinning.summary() << std::endl;
   const std::vector<TimingPoint> all = sweepPoints(sweep);
   const std::vector<TimingPoint> points = shardPoints(all, shard);
@@ -215,10 +216,13 @@ SweepStats runTimingSweep(const TimingSweep& sweep, Shard shard, const std::stri
     const int solver_threads = solver->threads();
     // Provenance now, so blas_threads/omp_max_threads are those of the measurement.
     Provenance prov = collectProvenance();
-    if (p.threads > 1)
-      pinning.release();
-    else
-      pinning.pinFastest();
+    // Pinned for the measurement only, and released however it ends (a caller, such as the
+    // Python module's, keeps its thread).
+    struct Pinned {
+      const CorePinning& pinning;
+      ~Pinned() { pinning.release(); }
+    } pinned{pinning};
+    if (p.threads == 1) pinning.pinFastest();
     const Measurement meas = measure(p.name(), body, sweep);
     pinning.release();
     solver.reset();
