@@ -257,12 +257,26 @@ std::vector<Isa> abiLevelsHere() {
   return out;
 }
 
+// An environment variable as it was when made, put back when destroyed.
+struct RestoreEnv {
+  std::string name, value;
+  bool set;
+  explicit RestoreEnv(const char* n) : name(n), set(std::getenv(n) != nullptr) {
+    if (set) value = std::getenv(n);
+  }
+  ~RestoreEnv() {
+    if (set)
+      setenv(name.c_str(), value.c_str(), 1);
+    else
+      unsetenv(name.c_str());
+  }
+};
+
 // abi's inverse() against the reference, column by column, with the mirrored rows streamed
 // and stored plainly (MINV_ABI_ROWS, read in prepare(); core/cpu.hpp).
 TEST(ImpulseSweeps, AbiInverseMatchesReference) {
   ASSERT_FALSE(abiLevelsHere().empty());
-  const char* was = std::getenv("MINV_ABI_ROWS");
-  const std::string saved = was ? was : "";
+  const RestoreEnv restore("MINV_ABI_ROWS");
   Worst worst;
   for (const Case& c : cases()) {
     const int n = c.model.nv();
@@ -282,10 +296,6 @@ TEST(ImpulseSweeps, AbiInverseMatchesReference) {
         worst.add(e, c.tol, name + " " + c.name);
       }
   }
-  if (was)
-    setenv("MINV_ABI_ROWS", saved.c_str(), 1);
-  else
-    unsetenv("MINV_ABI_ROWS");
 }
 
 // abi's inverse() takes full blocks in pairs at level avx512 from nv = 256 (kAbiPairs,
@@ -309,8 +319,7 @@ TEST(ImpulseSweeps, AbiPairedBlocksMatchSingleBlocksExactly) {
   big.push_back(makeCase(
       "centipede", "centipede_spherical_S30",
       makeCentipede({.segments = 30, .segment_joint = SegmentJoint::Spherical}).model, 10));
-  const char* was = std::getenv("MINV_ABI_ROWS");
-  const std::string saved = was ? was : "";
+  const RestoreEnv restore("MINV_ABI_ROWS");
   bool paired = false;
   for (const Case& c : big) {
     const int n = c.model.nv();
@@ -340,10 +349,6 @@ TEST(ImpulseSweeps, AbiPairedBlocksMatchSingleBlocksExactly) {
         }
     }
   }
-  if (was)
-    setenv("MINV_ABI_ROWS", saved.c_str(), 1);
-  else
-    unsetenv("MINV_ABI_ROWS");
   if (!paired)
     std::printf("note: no avx512 level on this CPU: no block was paired (single blocks only)\n");
 }

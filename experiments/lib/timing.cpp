@@ -216,15 +216,14 @@ SweepStats runTimingSweep(const TimingSweep& sweep, Shard shard, const std::stri
     const int solver_threads = solver->threads();
     // Provenance now, so blas_threads/omp_max_threads are those of the measurement.
     Provenance prov = collectProvenance();
-    // Pinned for the measurement only, and released however it ends (a caller, such as the
-    // Python module's, keeps its thread).
+    // Pinned for this point only, and released however it ends (a caller, such as the Python
+    // module's, keeps its thread).
     struct Pinned {
       const CorePinning& pinning;
       ~Pinned() { pinning.release(); }
     } pinned{pinning};
     if (p.threads == 1) pinning.pinFastest();
     const Measurement meas = measure(p.name(), body, sweep);
-    pinning.release();
     solver.reset();
     setBaselineThreads();
     // After a point on several threads, a pause: OpenBLAS's idle workers spin for about 0.1 s
