@@ -168,10 +168,10 @@ def parts_section(f):
              "the impulse `sweeps` of all column blocks without writing, and the `writes` "
              "(each block storing, as its forward sweep goes, its columns above the diagonal "
              "and, by symmetry, its rows left of it; at the avx512 level from n = 256 two blocks "
-             "at a time, their forward sweeps in turn, so that both blocks' rows in a column are "
-             "written together: the blocks timed whole, less the sweeps, which are timed one "
-             "block at a time, so that the writes also carry what pairing changes in the "
-             "sweeps). "
+             "at a time, eight from n = 4096, their forward sweeps in turn, so that the blocks' "
+             "rows in a column are written together: the blocks timed whole, less the sweeps, "
+             "which are timed one block at a time, so that the writes also carry what grouping "
+             "changes in the sweeps). "
              "A target that is missed is missed for the reason this table shows.", "",
              "| n | " + " | ".join(h for _, h in PARTS) + " | inverse / store |",
              "|---" * (len(PARTS) + 2) + "|"]

@@ -19,8 +19,8 @@
 // For a unit column e_c at body b only b's ancestors carry a non-zero Y (§5.2), and since M⁻¹
 // is symmetric only the rows of bodies 0 … b are needed (bodies are numbered parent first, so
 // their Δv never needs a later body): both sweeps stop at b, and each block writes its
-// columns above the diagonal and, by symmetry, its rows left of it (on AVX-512 two blocks at a
-// time, their forward sweeps in turn: abiInverseBlockPair). Columns go in blocks of W lanes
+// columns above the diagonal and, by symmetry, its rows left of it (on AVX-512 2 or 8 blocks at
+// a time, their forward sweeps in turn: abiInverseBlockGroup). Columns go in blocks of W lanes
 // (W = kAbiLanes<T>: 16 for double, 1 for the counting scalar), one lane per column, so every
 // update is a W-wide vector operation; along a chain Y and Δv pass from body to body in local
 // variables, not the workspace (in registers where a row is one or two vectors: VectorLanes
@@ -195,44 +195,78 @@ struct LaneSpatial {
   }
 };
 
+// Full blocks of columns in groups (abiInverseBlockGroup) where a block's lanes are vectors held
+// in registers (VectorLanes: the avx512 module): kAbiGroup<T>(nv) blocks a group, 1 where
+// blocks go one at a time. A block's mirrored rows in one column of X are W contiguous entries
+// (2 lines at W = 16), the next column's 8·ld bytes on; written one block at a time, each of
+// n = 4096's columns got 2 lines per sweep, 32 KB apart: that store pattern alone took 6.8 ms,
+// in pairs 4.4 ms, 4 blocks 4.0, and n² doubles streamed in order 3.5-3.7 (a probe with no
+// arithmetic). In abi (Zen 5 guest, one core):
+// - pairs from nv = kAbiPairMin (3 rounds alternated with one block at a time, bench_abi):
+//   serial pipeline 12-19 % faster at n = 256, 19-26 % at 512, 19-24 % at 1024, 11-17 % at
+//   2048, -1 … 11 % at 4096; two threads 7-19 % faster from 256 to 2048; branched trees -4 …
+//   3 %; below 256 X stays in the caches and pairs gained nothing (n = 64: 0-5 % slower);
+// - 8 blocks from nv = kAbiOctetMin (group sizes alternated call by call in one process,
+//   medians of 10-40, 2-3 rounds): against pairs 11-13 % faster at n = 4096, 3-7 % at 4608,
+//   8-15 % at 8192; 4 blocks 6-10 % at 4096, 16 no better than 8; at 3072 and below no group
+//   size beat pairs by more than 2 % (at 1024 eight were 4 % slower).
+// With Eigen arrays as lanes (the avx2 and baseline modules) pairs were 6-21 % slower at
+// n = 1024.
+inline constexpr int kAbiGroupChunk = 32;  // bodies per forward piece (16 worse, 64 alike)
+inline constexpr int kAbiPairMin = 256;
+inline constexpr int kAbiOctetMin = 4096;
+inline constexpr int kAbiGroupMax = 8;
+template <class T>
+constexpr int kAbiGroup(int nv) {
+  if (!kVectorLanes<LaneT<T, kAbiLanes<T>>>) return 1;
+  return nv >= kAbiOctetMin ? 8 : nv >= kAbiPairMin ? 2 : 1;
+}
+
 // Scratch of one thread for a block of W columns.
 template <class T, int W>
 struct AbiLanes {
   using Lane = LaneT<T, W>;           // one value per column
   using Spatial = LaneSpatial<T, W>;  // one spatial vector per column
-  std::vector<Spatial> Y;   // Y_i handed to a parent that is not the previous body, per body
-  std::vector<Spatial> dv;  // Δv_i read by a child that is not the next body, per body
-  std::vector<Lane> u;      // u_i = r_i − S_iᵀ Y_i, then Δq̇, per DOF
   // gather[i]: body i has a child other than i + 1. Along a chain (parent(i + 1) = i) Y and Δv
-  // pass from body to body in registers; only at such branch points do they go through memory.
+  // pass from body to body in registers; only at such branch points do they go through memory,
+  // at slot[i] of Y and dv (−1 elsewhere: a serial chain keeps none).
   std::vector<char> gather;
-  std::vector<char> held;  // held[i]: Y[i] holds a share left by a child (backward sweep)
+  std::vector<int> slot;
+  std::vector<Spatial> Y;   // Y_i handed up by a child that is not the next body, per slot
+  std::vector<Spatial> dv;  // Δv_i read by a child that is not the next body, per slot
+  std::vector<Lane> u;      // u_i = r_i − S_iᵀ Y_i, then Δq̇, per DOF
+  std::vector<char> held;   // held[i]: Y[slot[i]] holds a share left by a child (backward)
   // link[i]: body i has one DOF, its parent is i − 1 and its only child (if any) is i + 1: Y
   // passes through it up the chain and Δv down it.
   std::vector<char> link;
   std::vector<Lane> e;  // e[w]: 1 in lane w, 0 elsewhere (the unit impulse of lane w)
 
   explicit AbiLanes(const Model& m)
-      : Y(m.nb(), Spatial::Zero()),
-        dv(m.nb(), Spatial::Zero()),
+      : gather(m.nb(), 0),
+        slot(m.nb(), -1),
         u(m.nv(), Lane::Zero()),
-        gather(m.nb(), 0),
         held(m.nb(), 0),
         link(m.nb(), 0),
         e(W, Lane::Zero()) {
     for (int w = 0; w < W; ++w) setLane(e[w], w, T(1));
     for (int j = 1; j < m.nb(); ++j)
       if (m.parent(j) >= 0 && m.parent(j) != j - 1) gather[m.parent(j)] = 1;
+    int slots = 0;
+    for (int j = 0; j < m.nb(); ++j)
+      if (gather[j]) slot[j] = slots++;
+    Y.assign(slots, Spatial::Zero());
+    dv.assign(slots, Spatial::Zero());
     for (int j = 1; j < m.nb(); ++j) link[j] = m.nvOf(j) == 1 && m.parent(j) == j - 1 && !gather[j];
   }
 };
 
-// Per-tree scratch of the impulse sweeps, per thread: a wide block, a half-wide one (for a
-// last block of few columns) and a one-column one.
+// Per-tree scratch of the impulse sweeps, per thread: a wide block (and a group's other blocks,
+// kAbiGroup − 1 more), a half-wide one (for a last block of few columns) and a one-column one.
 template <class T>
 struct AbiWorkspace {
   static constexpr int kHalf = kAbiLanes<T> > 1 ? kAbiLanes<T> / 2 : 1;
-  std::vector<AbiLanes<T, kAbiLanes<T>>> wide, wide2;  // wide2: a pair's second block
+  int group = 1;                                        // blocks per group (kAbiGroup)
+  std::vector<AbiLanes<T, kAbiLanes<T>>> wide, others;  // others: thread t's at t·(group − 1)
   std::vector<AbiLanes<T, kHalf>> half;
   std::vector<AbiLanes<T, 1>> narrow;
 
@@ -240,11 +274,16 @@ struct AbiWorkspace {
   bool stream_rows = false;
 
   explicit AbiWorkspace(const Model& m, int threads = 1)
-      : wide(threads, AbiLanes<T, kAbiLanes<T>>(m)),
-        wide2(threads, AbiLanes<T, kAbiLanes<T>>(m)),
+      : group(kAbiGroup<T>(m.nv())),
+        wide(threads, AbiLanes<T, kAbiLanes<T>>(m)),
+        others(threads * (group - 1), AbiLanes<T, kAbiLanes<T>>(m)),
         half(threads, AbiLanes<T, kHalf>(m)),
         narrow(threads, AbiLanes<T, 1>(m)) {}
   int threads() const { return static_cast<int>(wide.size()); }
+  // Block j of thread t's group.
+  AbiLanes<T, kAbiLanes<T>>& lanes(int t, int j) {
+    return j == 0 ? wide[t] : others[t * (group - 1) + j - 1];
+  }
 };
 
 // −aᵀY for a 6-vector a and Y's six rows, in two halves (a shorter dependency chain).
@@ -355,8 +394,8 @@ MINV_FLATTEN void abiBackward(const Model& model, const Kinematics<T>& kin,
     // Y_i: carried up the chain from i + 1, plus what other children left in memory.
     if (!carried) Y.setZero();
     if (gathered) {
-      Y += ws.Y[i];
-      ws.Y[i].setZero();
+      Y += ws.Y[ws.slot[i]];
+      ws.Y[ws.slot[i]].setZero();
       ws.held[i] = 0;
     }
     // A one-DOF body above a run of links: the run, its chain shortened (abiBackwardLinks).
@@ -373,7 +412,7 @@ MINV_FLATTEN void abiBackward(const Model& model, const Kinematics<T>& kin,
     // Carried on along a chain, else left in memory.
     carried = p >= 0 && p == i - 1;
     if (p >= 0 && !carried) {
-      ws.Y[p] += Y;
+      ws.Y[ws.slot[p]] += Y;
       ws.held[p] = 1;
     }
   }
@@ -629,7 +668,7 @@ struct LaneRows {
 //   Δq̇_j = D_j⁻¹ u_j − (U_j D_j⁻¹)ᵀ Δv_λ' + c_j Δq̇_{j−1},   Δv_{j−1} = Δv_λ' + S_{j−1} Δq̇_{j−1},
 // with the same c_j = −(U_j D_j⁻¹)ᵀ S_{j−1}: Δq̇_j = D_j⁻¹ u_j − (U_j D_j⁻¹)ᵀ Δv_{j−1} regrouped as
 // in abiBackwardLinks. Each Δq̇ into ws.u and `rows`. On exit dv = Δv_j of the run's last body
-// j; returns j. A sweep taken in pieces (abiInverseBlockPair) stops at `end` < last: if the run
+// j; returns j. A sweep taken in pieces (abiInverseBlockGroup) stops at `end` < last: if the run
 // goes on past it, `open` is set, q = Δq̇_end and dv = Δv_λ(end) are left as the loop has them,
 // and the next piece resumes there (`resume`, from i = end): the same operations as in one piece.
 template <class T, int W>
@@ -662,7 +701,7 @@ MINV_INLINE int abiForwardLinks(const Model& model, const Kinematics<T>& kin,
     // Δv_i = Δv_λ(i) + S_i Δq̇_i (kept for a child that is not the next body: only the run's
     // first body can have one)
     forRows<Lane>([&](auto r) { dv.row(r) += S(r) * q; });
-    if (ws.gather[i]) ws.dv[i] = dv;
+    if (ws.gather[i]) ws.dv[ws.slot[i]] = dv;
     ws.u[v + 1] = qn;
     rows.store(ws.u, v + 1, 1);
     q = qn;
@@ -690,7 +729,7 @@ struct ForwardCarry {
 // Out of line, the one forward sweep of every block, whole or in pieces: each call keeps its
 // carry in registers (with the pieces of two blocks inlined into one function the branched
 // tree's pairs ran 30-50 % slower, Zen 5; through one more inlined helper taking the carry by
-// reference, Δv stayed on the stack and every sweep ran 15-90 % slower), and a pair's blocks
+// reference, Δv stayed on the stack and every sweep ran 15-90 % slower), and a group's blocks
 // and a single block run the same machine code, so that they agree bit for bit (inlined into
 // each caller, FMA contraction differed between them in the last bits).
 template <class T, int W>
@@ -709,7 +748,7 @@ __attribute__((noinline)) MINV_FLATTEN void abiForwardRange(
   for (; i <= end; ++i) {
     const int v = model.vIdx(i), k = model.nvOf(i), p = model.parent(i);
     // Δv_λ(i): carried from body i − 1 along a chain, else read from memory.
-    if (p >= 0 && p != i - 1) dv = ws.dv[p];
+    if (p >= 0 && p != i - 1) dv = ws.dv[ws.slot[p]];
     // A one-DOF body above a run of links: the run, its chain shortened (abiForwardLinks).
     if (k == 1 && i + 1 <= last && ws.link[i + 1]) {
       i = abiForwardLinks<T, W>(model, kin, art, ws, dv, q, i, last, end, false, p < 0, open, rows);
@@ -722,7 +761,7 @@ __attribute__((noinline)) MINV_FLATTEN void abiForwardRange(
       abiForwardBody<T, W, 0>(kin, art, ws, dv, i, v, k, p < 0);
     rows.store(ws.u, v, k);
     // Kept in memory for a child that is not the next body.
-    if (ws.gather[i]) ws.dv[i] = dv;
+    if (ws.gather[i]) ws.dv[ws.slot[i]] = dv;
   }
   carry.dv = dv, carry.q = q, carry.open = open;
 }
@@ -780,47 +819,41 @@ MINV_FLATTEN void abiInverseBlock(const Model& model, const Kinematics<T>& kin,
   abiBlockTail<T, W>(ws, c0, width, x, ld, upper);
 }
 
-// Two adjacent full blocks, c0 … c0+2W−1: both backward sweeps, then their forward sweeps in
-// turn, kAbiPairChunk bodies at a time (a run of links cut between pieces is resumed, so every
-// entry takes the same operations as in abiInverseBlock), so that the rows of both blocks in
-// one column of X (2W contiguous entries) are written close together in time. Written one block
-// at a time, each column gets 2 lines per sweep, 32 KB apart at n = 4096: that store pattern
-// alone took 6.8 ms at n = 4096 against 4.4 ms in pairs (chunks of 16-64 bodies alike, 4 blocks
-// 4.0 ms) and 3.5-3.7 for n² doubles streamed in order (Zen 5 guest, a probe with no
-// arithmetic). In abi (pinned to one core, 3 rounds alternated with one block at a time): serial
-// pipeline 12-19 % faster at n = 256, 19-26 % at 512, 19-24 % at 1024, 11-17 % at 2048, -1 …
-// 11 % at 4096; two threads 7-19 % faster from 256 to 2048; branched trees -4 … 3 %. Only where
-// a block's lanes are vectors held in registers (VectorLanes: the avx512 module): with Eigen
-// arrays (avx2, baseline) pairs were 6-21 % slower at n = 1024. From nv = kAbiPairMin: below it
-// X stays in the caches and pairs gained nothing (n = 64: 0-5 % slower).
-inline constexpr int kAbiPairChunk = 32;
-template <class T, int W>
-inline constexpr bool kAbiPairs = kVectorLanes<LaneT<T, W>>;
-inline constexpr int kAbiPairMin = 256;
-template <class T, int W, class Out, class Mark>
-MINV_FLATTEN void abiInverseBlockPair(const Model& model, const Kinematics<T>& kin,
-                                      const Articulated<T>& art, AbiLanes<T, W>& wa,
-                                      AbiLanes<T, W>& wb, int c0, Out& X, Mark& mark, bool upper,
-                                      bool stream) {
-  const int c1 = c0 + W;
-  const int lastA = model.dofBody(c1 - 1), lastB = model.dofBody(c1 + W - 1);
+// g adjacent full blocks (kAbiGroup), c0 … c0+gW−1: every block's backward sweep, then their
+// forward sweeps in turn, kAbiGroupChunk bodies at a time (a run of links cut between pieces is
+// resumed, so every entry takes the same operations as in abiInverseBlock), so that the rows of
+// all g blocks in one column of X (gW contiguous entries) are written close together in time.
+// ws[j]: block j's scratch. (g a template argument: the carries of kAbiGroupMax blocks, zeroed
+// at each call, cost a pair 2-3 % at n = 256 and 512.)
+template <class T, int W, int g, class Out, class Mark>
+MINV_FLATTEN void abiInverseBlockGroup(const Model& model, const Kinematics<T>& kin,
+                                       const Articulated<T>& art, AbiLanes<T, W>* const* ws, int c0,
+                                       Out& X, Mark& mark, bool upper, bool stream) {
   const std::size_t ld = X.outerStride();
   T* x = X.data();
-  abiBackward<T, W, true>(model, kin, art, wa, lastA, c0, W);
-  abiBackward<T, W, true>(model, kin, art, wb, lastB, c1, W);
-  mark("impulse propagation");
-  const LaneRows<T> ra{upper ? nullptr : x + c0, ld, c0, W, stream, x + c0 * ld, c0 / 8 * 8};
-  const LaneRows<T> rb{upper ? nullptr : x + c1, ld, c1, W, stream, x + c1 * ld, c1 / 8 * 8};
-  ForwardCarry<T, W> ca, cb;
-  for (int first = 0; first <= lastA; first += kAbiPairChunk) {
-    const int end = std::min(first + kAbiPairChunk - 1, lastA);
-    abiForwardRange<T, W>(model, kin, art, wa, first, end, lastA, ca, ra);
-    abiForwardRange<T, W>(model, kin, art, wb, first, end, lastB, cb, rb);
+  // Each block's unit impulses up to the roots.
+  int last[g];
+  for (int j = 0; j < g; ++j) {
+    last[j] = model.dofBody(c0 + (j + 1) * W - 1);
+    abiBackward<T, W, true>(model, kin, art, *ws[j], last[j], c0 + j * W, W);
   }
-  abiForwardRange<T, W>(model, kin, art, wb, lastA + 1, lastB, lastB, cb, rb);
+  mark("impulse propagation");
+  // Each block's strips of X (as in abiInverseBlock) and its forward sweep's carry.
+  LaneRows<T> rows[g];
+  ForwardCarry<T, W> carry[g];
+  for (int j = 0; j < g; ++j) {
+    const int c = c0 + j * W;
+    rows[j] = LaneRows<T>{upper ? nullptr : x + c, ld, c, W, stream, x + c * ld, c / 8 * 8};
+  }
+  // The forward sweeps in turn, a piece each, while a block's sweep goes on.
+  for (int first = 0; first <= last[g - 1]; first += kAbiGroupChunk)
+    for (int j = 0; j < g; ++j)
+      if (first <= last[j])
+        abiForwardRange<T, W>(model, kin, art, *ws[j], first,
+                              std::min(first + kAbiGroupChunk - 1, last[j]), last[j], carry[j],
+                              rows[j]);
   mark("velocity updates");
-  abiBlockTail<T, W>(wa, c0, W, x, ld, upper);
-  abiBlockTail<T, W>(wb, c1, W, x, ld, upper);
+  for (int j = 0; j < g; ++j) abiBlockTail<T, W>(*ws[j], c0 + j * W, W, x, ld, upper);
 }
 
 // What the sweeps read of a configuration (S, U D⁻¹, D⁻¹), per thread: thread t reads copy t,
@@ -860,18 +893,24 @@ void abiInverse(const Model& model, AbiConfigurations<T> config, AbiWorkspace<T>
       abiInverseBlock<T, W>(model, kin, art, ws.wide[thread], b * W, Minv, mk, upper,
                             ws.stream_rows);
   };
-  // Full blocks (W columns) in pairs (abiInverseBlockPair) where rows are mirrored: unit b is
-  // blocks 2b and 2b + 1 while both are full, else one block.
-  const bool pairs = kAbiPairs<T, W> && !upper && nv >= kAbiPairMin;
-  const int full = nv / W, paired = pairs ? full / 2 : 0;
-  const int units = blocks - paired;
+  // Full blocks (W columns) in groups of ws.group (abiInverseBlockGroup) where rows are
+  // mirrored: unit b is blocks gb … gb + g − 1 while all are full, else one block.
+  const int g = upper ? 1 : ws.group;
+  const int groups = g > 1 ? nv / W / g : 0;
+  const int units = blocks - groups * (g - 1);
   auto unit = [&](int b, int thread, auto& mk) {
-    if (b < paired) {
-      abiInverseBlockPair<T, W>(model, config.kin(thread), config.art(thread), ws.wide[thread],
-                                ws.wide2[thread], 2 * b * W, Minv, mk, upper, ws.stream_rows);
+    if (b < groups) {
+      AbiLanes<T, W>* lanes[kAbiGroupMax];
+      for (int j = 0; j < g; ++j) lanes[j] = &ws.lanes(thread, j);
+      if (g == kAbiGroupMax)
+        abiInverseBlockGroup<T, W, kAbiGroupMax>(model, config.kin(thread), config.art(thread),
+                                                 lanes, g * b * W, Minv, mk, upper, ws.stream_rows);
+      else
+        abiInverseBlockGroup<T, W, 2>(model, config.kin(thread), config.art(thread), lanes,
+                                      g * b * W, Minv, mk, upper, ws.stream_rows);
       return;
     }
-    block(b + paired, thread, mk);
+    block(b + groups * (g - 1), thread, mk);
   };
   // Subnormals flushed to zero on every thread (core/fpenv.hpp): far entries of a long chain
   // underflow, and on Intel cores each operation on them takes a microcode assist.
@@ -888,10 +927,10 @@ void abiInverse(const Model& model, AbiConfigurations<T> config, AbiWorkspace<T>
     config.ready(omp_thread());
     FlushSubnormals flush;
     NoMark none;
-    // Units (pairs, then single blocks) are independent and write disjoint parts of Minv;
-    // later blocks cost more: the last units first, handed out as threads come free (the one
-    // or two single blocks after the pairs, each about half a pair, go out before the last
-    // pair). (Blocks dealt out instead in a fixed snake order, so that each thread wrote the
+    // Units (groups, then single blocks) are independent and write disjoint parts of Minv;
+    // later blocks cost more: the last units first, handed out as threads come free (the
+    // single blocks after the groups, each less than a group, go out before the last group).
+    // (Blocks dealt out instead in a fixed snake order, so that each thread wrote the
     // same lines every call, took as long at n = 512 and 10 % longer at 1024 and 2048 on two
     // threads: Zen 5 guest, 6 rounds alternated.)
 #pragma omp for schedule(dynamic, 1) nowait

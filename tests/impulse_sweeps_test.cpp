@@ -298,14 +298,37 @@ TEST(ImpulseSweeps, AbiInverseMatchesReference) {
   }
 }
 
-// abi's inverse() takes full blocks in pairs at level avx512 from nv = 256 (kAbiPairs,
-// kAbiPairMin), their forward sweeps in pieces of kAbiPairChunk bodies (solvers/abi.hpp,
-// abiInverseBlockPair); inverseUpper() takes one block at a time in one piece. A run of links cut
-// between pieces is resumed, not restarted, so both compute every entry with the same operations:
-// their upper triangles agree bit for bit, at every level, on trees long enough for several pieces
-// (a restarted run would differ in the last bits). Bit for bit also needs the same machine code
-// (the forward sweep is one out-of-line function; the backward sweep is inlined into both
-// callers and contracted alike by GCC 12): another compiler may need this test relaxed.
+// abi's inverse() takes full blocks in groups at level avx512: pairs from nv = 256, eight from
+// nv = 4096 (kAbiGroup in solvers/abi.hpp), their forward sweeps in pieces of kAbiGroupChunk
+// bodies (abiInverseBlockGroup); inverseUpper() takes one block at a time in one piece. A run of
+// links cut between pieces is resumed, not restarted, so both compute every entry with the same
+// operations: their upper triangles agree bit for bit, at every level, on trees long enough for
+// several pieces (a restarted run would differ in the last bits). Bit for bit also needs the
+// same machine code (the forward sweep is one out-of-line function; the backward sweep is
+// inlined into both callers and contracted alike by GCC 12): another compiler may need this
+// test relaxed.
+// X = inverse() and U = inverseUpper() of abi at `level`, rows streamed or plain, the inverse
+// on `threads` threads (units dealt by OpenMP); the number of upper-triangle entries where X
+// differs from U or from its own transpose.
+int groupedAgainstSingle(Isa level, const char* rows, int threads, const Case& c,
+                         Eigen::MatrixXd& X) {
+  const int n = c.model.nv();
+  setenv("MINV_ABI_ROWS", rows, 1);
+  auto abi = makeAbiAt(level);
+  abi->prepare(c.model);
+  abi->setThreads(threads);
+  abi->configure(c.q);
+  X.resize(n, n);
+  Eigen::MatrixXd U = Eigen::MatrixXd::Zero(n, n);
+  abi->inverse(X);
+  abi->setThreads(1);
+  abi->inverseUpper(U);
+  int differ = 0;
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i <= j; ++i) differ += X(i, j) != U(i, j) || X(j, i) != X(i, j);
+  return differ;
+}
+
 TEST(ImpulseSweeps, AbiPairedBlocksMatchSingleBlocksExactly) {
   ASSERT_FALSE(abiLevelsHere().empty());
   std::vector<Case> big;
@@ -321,29 +344,17 @@ TEST(ImpulseSweeps, AbiPairedBlocksMatchSingleBlocksExactly) {
       makeCentipede({.segments = 30, .segment_joint = SegmentJoint::Spherical}).model, 10));
   const RestoreEnv restore("MINV_ABI_ROWS");
   bool paired = false;
+  Eigen::MatrixXd X;
   for (const Case& c : big) {
     const int n = c.model.nv();
     ASSERT_GE(n, 256) << c.name;
     for (Isa level : abiLevelsHere()) {
       paired |= level == Isa::Avx512;
-      // Rows streamed and plain; the inverse on one thread and on two (units dealt by OpenMP).
       for (const char* rows : {"plain", "stream"})
         for (int threads : {1, 2}) {
           const std::string name = std::string(isaName(level)) + ", rows " + rows + ", " +
                                    std::to_string(threads) + " thread(s), " + c.name;
-          setenv("MINV_ABI_ROWS", rows, 1);
-          auto abi = makeAbiAt(level);
-          abi->prepare(c.model);
-          abi->setThreads(threads);
-          abi->configure(c.q);
-          Eigen::MatrixXd X(n, n), U = Eigen::MatrixXd::Zero(n, n);
-          abi->inverse(X);
-          abi->setThreads(1);
-          abi->inverseUpper(U);
-          int differ = 0;
-          for (int j = 0; j < n; ++j)
-            for (int i = 0; i <= j; ++i) differ += X(i, j) != U(i, j) || X(j, i) != X(i, j);
-          EXPECT_EQ(differ, 0) << name << " nv=" << n;
+          EXPECT_EQ(groupedAgainstSingle(level, rows, threads, c, X), 0) << name << " nv=" << n;
           // And both are M⁻¹.
           EXPECT_LE(relativeError(X, c.M.inverse()), c.tol) << name;
         }
@@ -351,6 +362,54 @@ TEST(ImpulseSweeps, AbiPairedBlocksMatchSingleBlocksExactly) {
   }
   if (!paired)
     std::printf("note: no avx512 level on this CPU: no block was paired (single blocks only)\n");
+}
+
+// The same for groups of eight blocks (nv >= 4096), on a serial chain (n = 4148: 259 full
+// blocks, so 32 groups, 3 single blocks and a half-wide last one) and a branched tree with
+// mixed joints and a floating base (its branch points' Y and Δv go through memory). M⁻¹ is
+// checked on 24 columns against the one-column reference, within 1e-9 relative per column (the
+// chain's κ is large; as in AbiFlushesSubnormalsAndRestoresTheMode).
+TEST(ImpulseSweeps, AbiGroupsOfEightMatchSingleBlocksExactly) {
+  ASSERT_FALSE(abiLevelsHere().empty());
+  constexpr double kTol = 1e-9;
+  std::vector<Case> big;
+  for (auto [name, options] :
+       {std::pair{"serial_revolute_n4148",
+                  TreeOptions{Topology::Serial, 4148, 11, false, JointSet::Revolute}},
+        std::pair{"branched_mixed_floating_n3000",
+                  TreeOptions{Topology::Branched, 3000, 12, true, JointSet::Mixed}}}) {
+    Case c{"big", name, randomTree(options), {}, {}, 0};
+    c.q = randomConfiguration(c.model, options.seed);
+    big.push_back(std::move(c));
+  }
+  const RestoreEnv restore("MINV_ABI_ROWS");
+  Eigen::MatrixXd X;
+  for (const Case& c : big) {
+    const int n = c.model.nv();
+    ASSERT_GE(n, 4096) << c.name;
+    Kinematics<double> kin(c.model);
+    computeKinematics<double>(c.model, c.q, kin);
+    Articulated<double> art(c.model);
+    articulatedInertias<double>(c.model, kin, art);
+    ImpulseWorkspace<double> ws(c.model);
+    std::vector<int> cols;
+    for (int j = 0; j < 24; ++j) cols.push_back(static_cast<int>(std::int64_t(j) * (n - 1) / 23));
+    Eigen::MatrixXd ref(n, static_cast<Eigen::Index>(cols.size()));
+    for (std::size_t j = 0; j < cols.size(); ++j)
+      impulseResponse<double>(c.model, kin, art, Eigen::VectorXd::Unit(n, cols[j]), ref.col(j), ws);
+    for (Isa level : abiLevelsHere())
+      for (const char* rows : {"plain", "stream"})
+        for (int threads : {1, 2}) {
+          const std::string name = std::string(isaName(level)) + ", rows " + rows + ", " +
+                                   std::to_string(threads) + " thread(s), " + c.name;
+          EXPECT_EQ(groupedAgainstSingle(level, rows, threads, c, X), 0) << name << " nv=" << n;
+          for (std::size_t j = 0; j < cols.size(); ++j) {
+            const auto r = ref.col(static_cast<Eigen::Index>(j));
+            EXPECT_LE((X.col(cols[j]) - r).norm(), kTol * r.norm())
+                << name << " column " << cols[j];
+          }
+        }
+  }
 }
 
 // abi's solve(R) against the reference's response to each column of R.
