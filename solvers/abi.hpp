@@ -31,7 +31,8 @@
 // one multiply-add waits, not a dot product (abiBackwardLinks, abiForwardLinks): one multiply
 // and one add more per column and link, for a dependency chain about half as long.
 // Cost: Σ_c (depth(b_c) + b_c) body steps ≈ n²/2 + Σ depth for M⁻¹ (Θ(n²)); Θ(m·nb) for M⁻¹R.
-// Scratch Θ(nb·W) per thread, allocated in the workspace; the sweeps do not allocate.
+// Scratch Θ(nv·W) per block and thread (up to kAbiGroupMax blocks a thread), allocated in the
+// workspace; the sweeps do not allocate.
 // Numbers below DBL_MIN are flushed to zero while the sweeps run (core/fpenv.hpp): an absolute
 // change below 2.2e-308 that keeps Intel cores off their slow subnormal path at large n.
 #pragma once
@@ -196,12 +197,12 @@ struct LaneSpatial {
 };
 
 // Full blocks of columns in groups (abiInverseBlockGroup) where a block's lanes are vectors held
-// in registers (VectorLanes: the avx512 module): kAbiGroup<T>(nv) blocks a group, 1 where
-// blocks go one at a time. A block's mirrored rows in one column of X are W contiguous entries
-// (2 lines at W = 16), the next column's 8·ld bytes on; written one block at a time, each of
-// n = 4096's columns got 2 lines per sweep, 32 KB apart: that store pattern alone took 6.8 ms,
-// in pairs 4.4 ms, 4 blocks 4.0, and n² doubles streamed in order 3.5-3.7 (a probe with no
-// arithmetic). In abi (Zen 5 guest, one core):
+// in registers (VectorLanes: at the default 16 lanes, the avx512 module): kAbiGroup<T>(nv)
+// blocks a group (1, 2 or 8; 1: blocks go one at a time). A block's mirrored rows in one column of
+// X are W contiguous entries (2 lines at W = 16), the next column's 8·ld bytes on; written one
+// block at a time, each of n = 4096's columns got 2 lines per sweep, 32 KB apart: that store
+// pattern alone took 6.8 ms, in pairs 4.4 ms, 4 blocks 4.0, and n² doubles streamed in
+// order 3.5-3.7 (a probe with no arithmetic). In abi (Zen 5 guest, one core):
 // - pairs from nv = kAbiPairMin (3 rounds alternated with one block at a time, bench_abi):
 //   serial pipeline 12-19 % faster at n = 256, 19-26 % at 512, 19-24 % at 1024, 11-17 % at
 //   2048, -1 … 11 % at 4096; two threads 7-19 % faster from 256 to 2048; branched trees -4 …
@@ -218,8 +219,9 @@ inline constexpr int kAbiOctetMin = 4096;
 inline constexpr int kAbiGroupMax = 8;
 template <class T>
 constexpr int kAbiGroup(int nv) {
+  static_assert(kAbiGroupMax == 8, "abiInverse dispatches groups of 2 and kAbiGroupMax");
   if (!kVectorLanes<LaneT<T, kAbiLanes<T>>>) return 1;
-  return nv >= kAbiOctetMin ? 8 : nv >= kAbiPairMin ? 2 : 1;
+  return nv >= kAbiOctetMin ? kAbiGroupMax : nv >= kAbiPairMin ? 2 : 1;
 }
 
 // Scratch of one thread for a block of W columns.
@@ -232,7 +234,7 @@ struct AbiLanes {
   // at slot[i] of Y and dv (−1 elsewhere: a serial chain keeps none).
   std::vector<char> gather;
   std::vector<int> slot;
-  std::vector<Spatial> Y;   // Y_i handed up by a child that is not the next body, per slot
+  std::vector<Spatial> Y;   // what children other than i + 1 hand up to body i, per slot
   std::vector<Spatial> dv;  // Δv_i read by a child that is not the next body, per slot
   std::vector<Lane> u;      // u_i = r_i − S_iᵀ Y_i, then Δq̇, per DOF
   std::vector<char> held;   // held[i]: Y[slot[i]] holds a share left by a child (backward)
@@ -265,7 +267,7 @@ struct AbiLanes {
 template <class T>
 struct AbiWorkspace {
   static constexpr int kHalf = kAbiLanes<T> > 1 ? kAbiLanes<T> / 2 : 1;
-  int group = 1;                                        // blocks per group (kAbiGroup)
+  const int group;                                      // blocks per group (kAbiGroup)
   std::vector<AbiLanes<T, kAbiLanes<T>>> wide, others;  // others: thread t's at t·(group − 1)
   std::vector<AbiLanes<T, kHalf>> half;
   std::vector<AbiLanes<T, 1>> narrow;
@@ -899,16 +901,20 @@ void abiInverse(const Model& model, AbiConfigurations<T> config, AbiWorkspace<T>
   const int groups = g > 1 ? nv / W / g : 0;
   const int units = blocks - groups * (g - 1);
   auto unit = [&](int b, int thread, auto& mk) {
-    if (b < groups) {
-      AbiLanes<T, W>* lanes[kAbiGroupMax];
-      for (int j = 0; j < g; ++j) lanes[j] = &ws.lanes(thread, j);
-      if (g == kAbiGroupMax)
-        abiInverseBlockGroup<T, W, kAbiGroupMax>(model, config.kin(thread), config.art(thread),
-                                                 lanes, g * b * W, Minv, mk, upper, ws.stream_rows);
-      else
-        abiInverseBlockGroup<T, W, 2>(model, config.kin(thread), config.art(thread), lanes,
-                                      g * b * W, Minv, mk, upper, ws.stream_rows);
-      return;
+    if constexpr (kVectorLanes<LaneT<T, W>>) {
+      if (b < groups) {
+        AbiLanes<T, W>* lanes[kAbiGroupMax];
+        for (int j = 0; j < g; ++j) lanes[j] = &ws.lanes(thread, j);
+        // (kAbiGroup gives 2 or 8 here.)
+        if (g == kAbiGroupMax)
+          abiInverseBlockGroup<T, W, kAbiGroupMax>(model, config.kin(thread), config.art(thread),
+                                                   lanes, g * b * W, Minv, mk, upper,
+                                                   ws.stream_rows);
+        else
+          abiInverseBlockGroup<T, W, 2>(model, config.kin(thread), config.art(thread), lanes,
+                                        g * b * W, Minv, mk, upper, ws.stream_rows);
+        return;
+      }
     }
     block(b + groups * (g - 1), thread, mk);
   };
