@@ -212,7 +212,8 @@ struct LaneSpatial {
 //   8-15 % at 8192; 4 blocks 6-10 % at 4096, 16 no better than 8; at 3072 and below no group
 //   size beat pairs by more than 2 % (at 1024 eight were 4 % slower).
 // With Eigen arrays as lanes (the avx2 and baseline modules) pairs were 6-21 % slower at
-// n = 1024.
+// n = 1024, and eight blocks from n = 4096 were 3-17 % slower on avx2 and 5-9 % faster on
+// baseline (bench_abi, 3 rounds alternated): not taken.
 inline constexpr int kAbiGroupChunk = 32;  // bodies per forward piece (16 worse, 64 alike)
 inline constexpr int kAbiPairMin = 256;
 inline constexpr int kAbiOctetMin = 4096;
