@@ -826,12 +826,13 @@ MINV_FLATTEN void abiInverseBlock(const Model& model, const Kinematics<T>& kin,
 // forward sweeps in turn, kAbiGroupChunk bodies at a time (a run of links cut between pieces is
 // resumed, so every entry takes the same operations as in abiInverseBlock), so that the rows of
 // all g blocks in one column of X (gW contiguous entries) are written close together in time.
+// Rows are always mirrored (inverseUpper takes single blocks).
 // ws[j]: block j's scratch. (g a template argument: the carries of kAbiGroupMax blocks, zeroed
 // at each call, cost a pair 2-3 % at n = 256 and 512.)
 template <class T, int W, int g, class Out, class Mark>
 MINV_FLATTEN void abiInverseBlockGroup(const Model& model, const Kinematics<T>& kin,
                                        const Articulated<T>& art, AbiLanes<T, W>* const* ws, int c0,
-                                       Out& X, Mark& mark, bool upper, bool stream) {
+                                       Out& X, Mark& mark, bool stream) {
   const std::size_t ld = X.outerStride();
   T* x = X.data();
   // Each block's unit impulses up to the roots.
@@ -846,7 +847,7 @@ MINV_FLATTEN void abiInverseBlockGroup(const Model& model, const Kinematics<T>& 
   ForwardCarry<T, W> carry[g];
   for (int j = 0; j < g; ++j) {
     const int c = c0 + j * W;
-    rows[j] = LaneRows<T>{upper ? nullptr : x + c, ld, c, W, stream, x + c * ld, c / 8 * 8};
+    rows[j] = LaneRows<T>{x + c, ld, c, W, stream, x + c * ld, c / 8 * 8};
   }
   // The forward sweeps in turn, a piece each, while a block's sweep goes on.
   for (int first = 0; first <= last[g - 1]; first += kAbiGroupChunk)
@@ -856,7 +857,7 @@ MINV_FLATTEN void abiInverseBlockGroup(const Model& model, const Kinematics<T>& 
                               std::min(first + kAbiGroupChunk - 1, last[j]), last[j], carry[j],
                               rows[j]);
   mark("velocity updates");
-  for (int j = 0; j < g; ++j) abiBlockTail<T, W>(*ws[j], c0 + j * W, W, x, ld, upper);
+  for (int j = 0; j < g; ++j) abiBlockTail<T, W>(*ws[j], c0 + j * W, W, x, ld, false);
 }
 
 // What the sweeps read of a configuration (S, U D⁻¹, D⁻¹), per thread: thread t reads copy t,
@@ -909,11 +910,10 @@ void abiInverse(const Model& model, AbiConfigurations<T> config, AbiWorkspace<T>
         // (kAbiGroup gives 2 or 8 here.)
         if (g == kAbiGroupMax)
           abiInverseBlockGroup<T, W, kAbiGroupMax>(model, config.kin(thread), config.art(thread),
-                                                   lanes, g * b * W, Minv, mk, upper,
-                                                   ws.stream_rows);
+                                                   lanes, g * b * W, Minv, mk, ws.stream_rows);
         else
           abiInverseBlockGroup<T, W, 2>(model, config.kin(thread), config.art(thread), lanes,
-                                        g * b * W, Minv, mk, upper, ws.stream_rows);
+                                        g * b * W, Minv, mk, ws.stream_rows);
         return;
       }
     }
