@@ -19,12 +19,10 @@
 // resident memory beyond the output: the scratch is O(n·W), not O(n²).
 #include <benchmark/benchmark.h>
 #include <cblas.h>
-#include <sys/mman.h>
 #include <sys/resource.h>
 
 #include <algorithm>
 #include <chrono>
-#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -37,6 +35,7 @@
 #include "experiments/lib/budget.hpp"
 #include "experiments/lib/cores.hpp"
 #include "experiments/lib/h5writer.hpp"
+#include "experiments/lib/output_matrix.hpp"
 #include "experiments/lib/provenance.hpp"
 #include "experiments/lib/timing.hpp"
 #include "generators/random_tree.hpp"
@@ -64,21 +63,6 @@ const Problem& problem(Topology t, int n) {
     p = std::make_unique<Problem>(Problem{std::move(m), std::move(q)});
   }
   return *p;
-}
-
-// A zeroed output matrix on transparent huge pages where the kernel allows them (THP mode
-// "madvise" here): asked for before the pages are first touched, so that writing n² doubles
-// column by column does not miss the TLB every few columns. Every solver and the store floor
-// write into one of these.
-Eigen::MatrixXd outputMatrix(int rows, int cols) {
-  Eigen::MatrixXd X(rows, cols);
-  constexpr std::uintptr_t kHuge = std::uintptr_t(2) << 20;
-  const auto first = reinterpret_cast<std::uintptr_t>(X.data());
-  const std::uintptr_t begin = (first + kHuge - 1) / kHuge * kHuge;
-  const std::uintptr_t end = (first + sizeof(double) * X.size()) / kHuge * kHuge;
-  if (end > begin) madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
-  X.setZero();
-  return X;
 }
 
 // Whether a solver's point is measured: the one skip table (experiments/lib/budget.hpp,
@@ -477,8 +461,7 @@ int memoryRun(int n, const std::string& out) {
   const std::unique_ptr<Solver> abi = makeSolver("abi");
   Solver& s = *abi;
   s.prepare(p.model);
-  Eigen::MatrixXd X(n, n);
-  X.setZero();  // touch the output so it is resident before we measure
+  Eigen::MatrixXd X = outputMatrix(n, n);  // resident before we measure
   rusage before{};
   getrusage(RUSAGE_SELF, &before);
   const auto t0 = std::chrono::steady_clock::now();

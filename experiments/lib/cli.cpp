@@ -78,6 +78,7 @@
 #include "experiments/lib/gbench.hpp"
 #include "experiments/lib/h5reader.hpp"
 #include "experiments/lib/h5writer.hpp"
+#include "experiments/lib/output_matrix.hpp"
 #include "experiments/lib/provenance.hpp"
 #include "experiments/lib/timing.hpp"
 #include "generators/centipede.hpp"
@@ -210,7 +211,7 @@ void runSolver(const SolverEntry& e, const Model& model, const Eigen::VectorXd& 
     throw std::runtime_error("solver '" + e.name + "': residual ‖M·Minv − 1‖ is not finite");
   // Timing: median of kRepetitions runs of configure + inverse.
   std::vector<double> times;
-  Eigen::MatrixXd Xt(nv, nv);
+  Eigen::MatrixXd Xt = outputMatrix(nv, nv);
   for (int r = 0; r < kRepetitions; ++r) {
     const auto t0 = std::chrono::steady_clock::now();
     solver->configure(q);

@@ -13,6 +13,7 @@
 
 #include "experiments/lib/cores.hpp"
 #include "experiments/lib/h5writer.hpp"
+#include "experiments/lib/output_matrix.hpp"
 #include "experiments/lib/provenance.hpp"
 #include "generators/random_tree.hpp"
 #include "solvers/solver.hpp"
@@ -190,7 +191,7 @@ SweepStats runTimingSweep(const TimingSweep& sweep, Shard shard, const std::stri
     solver->prepare(model);
     solver->setThreads(p.family == "threads" ? p.threads : 1);
     const Eigen::MatrixXd R = randomMatrix(nv, std::max(p.m, 1), sweep.seed + 1);
-    Eigen::MatrixXd X(nv, p.m > 0 ? p.m : nv);
+    Eigen::MatrixXd X = outputMatrix(nv, p.m > 0 ? p.m : nv);
     solver->configure(q);  // warm-up, and the kernel family's untimed configuration
     std::function<void()> body;
     Solver* s = solver.get();
