@@ -350,7 +350,10 @@ def main():
                  "run; > 1 means abi is faster. GFLOP/s counts abi's own operations on the "
                  "counting scalar; '% of dgemm' divides by OpenBLAS dgemm's rate at the same n on "
                  "the same core; 'abi / store' is abi's time over the time to write n² doubles "
-                 "(the memory floor). — = not measured at that n (the skip table, "
+                 "(the memory floor: Eigen's setConstant, plain stores). Every solver and the "
+                 "floor write into a zeroed output on transparent huge pages where the kernel "
+                 "allows them (experiments/lib/output_matrix.hpp), its pages touched before "
+                 "timing. — = not measured at that n (the skip table, "
                  "experiments/lib/budget.cpp, gives each reason).", ""]
         lines += versus_section(f) + [""]
         theta_figure(f, cpu)
