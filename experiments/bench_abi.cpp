@@ -10,7 +10,8 @@
 // n from 8 to 4096 (quick mode: the serial chain only at 4096, cubic peers stop earlier).
 // Beside them: a store of n² doubles (the memory floor: the time to write the output at all),
 // OpenBLAS dgemm's rate on the same core, abi's counted flops (its own kernels on the counting
-// scalar) per second, abi on 2 threads, and abi's parts (configure, sweeps, writes of the
+// scalar) per second, abi on 2 threads beside two one-thread copies of abi run at once (the
+// most two threads can gain on this machine), and abi's parts (configure, sweeps, writes of the
 // output): where its time goes. Every raw repetition, the medians, the ratios, the parts and
 // the provenance go to one HDF5 file (a run with --benchmark_filter writes none unless --out).
 // --isa LEVEL (baseline, avx2, avx512, native) forces abi's instruction-set level, as MINV_ISA
@@ -19,6 +20,7 @@
 // resident memory beyond the output: the scratch is O(n·W), not O(n²).
 #include <benchmark/benchmark.h>
 #include <cblas.h>
+#include <omp.h>
 #include <sys/resource.h>
 
 #include <algorithm>
@@ -159,6 +161,43 @@ void registerSolver(const std::string& solver, Topology t, int n, int m, int thr
       ->UseRealTime();
 }
 
+// Two one-thread abi pipelines at once, each with its own solver, configuration and output,
+// one per OpenMP thread (forked per iteration, as abi@2 forks per call): an iteration is two
+// inverses. 2·t(abi) / t(copies) is what two threads gain when nothing is shared but the
+// machine (its caches, its memory, its host): the ceiling of abi@2's speed-up here.
+void registerCopies(Topology t, int n) {
+  const std::string name = "copies/" + std::string(topologyName(t)) + "/abi/" + std::to_string(n);
+  benchmark::RegisterBenchmark(
+      name.c_str(),
+      [=](benchmark::State& state) {
+        const Problem& p = problem(t, n);
+        // Every core, then back on the fastest (as registerSolver).
+        struct Repin {
+          ~Repin() { pinning().pinFastest(); }
+        } repin;
+        pinning().release();
+        std::unique_ptr<Solver> s[2] = {makeSolver("abi"), makeSolver("abi")};
+        Eigen::MatrixXd X[2];
+        for (int c = 0; c < 2; ++c) {
+          s[c]->prepare(p.model);
+          X[c] = outputMatrix(p.model.nv(), p.model.nv());
+        }
+        for (auto _ : state) {
+#pragma omp parallel num_threads(2)
+          {
+            const int c = omp_get_thread_num();
+            s[c]->configure(p.q);
+            s[c]->inverse(X[c]);
+          }
+          benchmark::DoNotOptimize(X[0].data());
+          benchmark::DoNotOptimize(X[1].data());
+          benchmark::ClobberMemory();
+        }
+      })
+      ->Unit(benchmark::kNanosecond)
+      ->UseRealTime();
+}
+
 // abi's parts on the serial chain, one thread, at the level in use: configure (kinematics +
 // articulated inertias), the sweeps alone, and the blocks (sweeps + writing each block's
 // strips of M⁻¹: the inverse). Where the time of inverse/serial/abi goes.
@@ -208,7 +247,10 @@ void registerAll(bool full) {
           for (int m : full ? std::vector<int>{1, 8, 64} : std::vector<int>{8})
             registerSolver(s, t, n, m, 1);
       }
-      if (n >= 256 && affordable("abi", full, t, n)) registerSolver("abi", t, n, 0, 2);
+      if (n >= 256 && affordable("abi", full, t, n)) {
+        registerSolver("abi", t, n, 0, 2);
+        registerCopies(t, n);
+      }
       // M⁻¹'s upper triangle alone (inverseUpper), abi and lapack (which computes it anyway).
       if (t == Topology::Serial && n >= 64)
         for (const char* s : {"abi", "lapack"})
@@ -333,9 +375,9 @@ void report(bool full, const std::string& out) {
       for (const auto& [name, v] : cols) h5.writeVector(g + "/" + name, v);
     }
     // abi's own figures: counted rate, share of dgemm's rate, the memory floor, 2 threads, M⁻¹R.
-    std::printf("\n%s, abi: %6s %9s %7s %9s %8s %10s\n", T.c_str(), "n", "GF/s", "%dgemm",
-                "abi/store", "2thr", "solve8:lap");
-    std::vector<double> ns, cols[5];
+    std::printf("\n%s, abi: %6s %9s %7s %9s %8s %8s %10s\n", T.c_str(), "n", "GF/s", "%dgemm",
+                "abi/store", "2thr", "2copies", "solve8:lap");
+    std::vector<double> ns, cols[6];
     for (int n : sizes) {
       const std::string N = std::to_string(n);
       const double abi = time("abi", n);
@@ -345,20 +387,25 @@ void report(bool full, const std::string& out) {
       const double dgemm_rate = dg > 0 ? 2.0 * n * n * n / dg * 1e-9 : 0;
       const double store = med("store/" + N);
       const double thr2 = med("inverse/" + T + "/abi@2/" + N);
+      const double copies = med("copies/" + T + "/abi/" + N);
       const double s8 = med("solve/" + T + "/abi/" + N + "/8");
       const double l8 = med("solve/" + T + "/lapack/" + N + "/8");
-      const double row[5] = {gflops, dgemm_rate > 0 ? 100 * gflops / dgemm_rate : 0,
-                             store > 0 ? abi / store : 0, thr2 > 0 ? abi / thr2 : 0,
+      const double row[6] = {gflops,
+                             dgemm_rate > 0 ? 100 * gflops / dgemm_rate : 0,
+                             store > 0 ? abi / store : 0,
+                             thr2 > 0 ? abi / thr2 : 0,
+                             copies > 0 ? 2 * abi / copies : 0,
                              s8 > 0 ? l8 / s8 : 0};
-      std::printf("%*s %6d %9.2f %7.1f %9.2f %8.2f %10.1f\n", static_cast<int>(T.size() + 5), "", n,
-                  row[0], row[1], row[2], row[3], row[4]);
+      std::printf("%*s %6d %9.2f %7.1f %9.2f %8.2f %8.2f %10.1f\n", static_cast<int>(T.size() + 5),
+                  "", n, row[0], row[1], row[2], row[3], row[4], row[5]);
       ns.push_back(n);
-      for (int c = 0; c < 5; ++c) cols[c].push_back(row[c]);
+      for (int c = 0; c < 6; ++c) cols[c].push_back(row[c]);
     }
-    const char* names[5] = {"abi_gflops", "abi_percent_of_dgemm", "abi_over_store",
-                            "abi_2thread_speedup", "lapack_over_abi_solve8"};
+    const char* names[6] = {"abi_gflops",          "abi_percent_of_dgemm",
+                            "abi_over_store",      "abi_2thread_speedup",
+                            "abi_2copies_speedup", "lapack_over_abi_solve8"};
     h5.writeVector("abi/" + T + "/n", ns);
-    for (int c = 0; c < 5; ++c) h5.writeVector("abi/" + T + "/" + names[c], cols[c]);
+    for (int c = 0; c < 6; ++c) h5.writeVector("abi/" + T + "/" + names[c], cols[c]);
     // Why a peer has no point at some n: the skip table's reasons.
     for (const std::string& s : others)
       for (int n : sizes)

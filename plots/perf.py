@@ -6,10 +6,13 @@ Layout read (bench_abi's report()): runs/<benchmark>/repetitions_s with attribut
 every benchmark ("inverse/<topology>/<solver>/<n>", "solve/…/<n>/<m>", "store/<n>",
 "dgemm/<n>", "parts/serial/<part>/<n>"); ratios/<topology>/{n, abi_us, <peer>_over_abi};
 ratios/<topology>/generic/{n, abi-generic_us, <peer>_over_abi_generic}; abi/<topology>/{n,
-abi_gflops, abi_percent_of_dgemm, abi_over_store, abi_2thread_speedup, lapack_over_abi_solve8};
+abi_gflops, abi_percent_of_dgemm, abi_over_store, abi_2thread_speedup, abi_2copies_speedup
+(two one-thread pipelines at once, "copies/<topology>/abi/<n>": the ceiling of the two-thread
+speed-up; absent from older files), lapack_over_abi_solve8};
 parts/serial/…; upper/serial/{n, abi_full_us, abi_upper_us, upper_over_full,
-upper_over_store, lapack_upper_over_abi_upper}; levels/serial/{n, <level>_us, <level>_over_<level in use>} with attribute
-level_in_use; attributes ratios/<topology>@skipped_<peer> (the skip table's reason)."""
+upper_over_store, lapack_upper_over_abi_upper}; levels/serial/{n, <level>_us,
+<level>_over_<level in use>} with attribute level_in_use; attributes
+ratios/<topology>@skipped_<peer> (the skip table's reason)."""
 import os
 
 import h5py
@@ -29,6 +32,7 @@ ABI_COLUMNS = [  # dataset, header, format
     ("abi_percent_of_dgemm", "% of dgemm", "{:.1f}"),
     ("abi_over_store", "abi / store n² doubles", "{:.2f}"),
     ("abi_2thread_speedup", "2 threads / 1", "{:.2f}"),
+    ("abi_2copies_speedup", "2 copies at once / 1 (ceiling)", "{:.2f}"),
     ("lapack_over_abi_solve8", "M⁻¹R, m = 8: lapack / abi", "{:.1f}"),
 ]
 
@@ -98,7 +102,8 @@ def abi_table(f, topo):
              "|---" * (len(ABI_COLUMNS) + 1) + "|"]
     for i, nv in enumerate(g["n"][()]):
         lines.append(f"| {int(nv)} | " +
-                     " | ".join(cell(fmt, g[d][()][i]) for d, _, fmt in ABI_COLUMNS) + " |")
+                     " | ".join(cell(fmt, g[d][()][i] if d in g else 0)
+                                for d, _, fmt in ABI_COLUMNS) + " |")
     return lines
 
 
@@ -264,7 +269,8 @@ def machines_section():
                      cell("{:.2f}", at(r, "lapack_over_abi", 16)),
                      cell("{:.2f}", at(r, "lapack_over_abi", 32)),
                      cell("{:.1f}", pct), cell("{:.1f}", pct * pl / sw if sw > 0 else 0)]
-            cells += [cell("{:.2f}", at(a, "abi_2thread_speedup", n)) for n in (512, 1024, 2048)]
+            cells += [cell("{:.2f}", at(a, "abi_2thread_speedup", n)) + " / " +
+                      cell("{:.2f}", at(a, "abi_2copies_speedup", n)) for n in (512, 1024, 2048)]
             cells += [cell("{:.2f}", at(a, "abi_over_store", 4096)),
                       cell("{:.2f}", avx2 / store if store > 0 else 0)]
             rows.append("| " + " | ".join(cells) + " |")
@@ -278,9 +284,14 @@ def machines_section():
             "operations per second over dgemm's, timed over the whole pipeline and over the "
             "sweeps alone (the parts table: configure and the writes excluded); the last column "
             "is abi forced to its avx2 level over the store, the nearest this run has to an "
-            "AVX2-only machine.", "",
+            "AVX2-only machine. Each two-thread cell is abi on 2 threads / abi on 1, then two "
+            "one-thread copies of abi run at once (each its own solver and output, one per "
+            "thread) / one alone: the most two threads gained on that machine with nothing "
+            "shared but the machine itself, the ceiling of the first (— where the file predates "
+            "that benchmark).", "",
             "| machine | lapack / abi n = 16 | n = 32 | % of dgemm n = 2048, pipeline | sweeps | "
-            "2 threads / 1 n = 512 | 1024 | 2048 | abi / store n = 4096 | avx2 level / store "
+            "2 threads / 1 (/ 2 copies / 1) n = 512 | 1024 | 2048 | abi / store n = 4096 | "
+            "avx2 level / store "
             "n = 4096 |",
             "|---|---|---|---|---|---|---|---|---|---|",
             "| target | ≥ 3 | ≥ 3 | | ≥ 35 | ≥ 1.85 | ≥ 1.85 | ≥ 1.85 | ≤ 2 | ≤ 2 |"] + rows
@@ -350,10 +361,13 @@ def main():
                  "run; > 1 means abi is faster. GFLOP/s counts abi's own operations on the "
                  "counting scalar; '% of dgemm' divides by OpenBLAS dgemm's rate at the same n on "
                  "the same core; 'abi / store' is abi's time over the time to write n² doubles "
-                 "(the memory floor: Eigen's setConstant, plain stores). Every solver and the "
-                 "floor write into a zeroed output on transparent huge pages where the kernel "
-                 "allows them (experiments/lib/output_matrix.hpp), its pages touched before "
-                 "timing. — = not measured at that n (the skip table, "
+                 "(the memory floor: Eigen's setConstant, plain stores); '2 copies at once / 1' "
+                 "is twice abi's time over the time of two one-thread abi pipelines run at once, "
+                 "each on its own thread with its own solver and output (what two threads can "
+                 "gain on this machine when they share nothing: the ceiling of '2 threads / "
+                 "1'). Every solver and the floor write into a zeroed output on transparent "
+                 "huge pages where the kernel allows them (experiments/lib/output_matrix.hpp), "
+                 "its pages touched before timing. — = not measured at that n (the skip table, "
                  "experiments/lib/budget.cpp, gives each reason).", ""]
         lines += versus_section(f) + [""]
         theta_figure(f, cpu)
