@@ -10,8 +10,8 @@
 // n from 8 to 4096 (quick mode: the serial chain only at 4096, cubic peers stop earlier).
 // Beside them: a store of n² doubles (the memory floor: the time to write the output at all),
 // OpenBLAS dgemm's rate on the same core, abi's counted flops (its own kernels on the counting
-// scalar) per second, abi on 2 threads beside two one-thread copies of abi run at once (the
-// most two threads can gain on this machine), and abi's parts (configure, sweeps, writes of the
+// scalar) per second, abi on 2 threads beside two one-thread copies of abi run at once (what
+// two threads gain here when they share nothing), and abi's parts (configure, sweeps, writes of the
 // output): where its time goes. Every raw repetition, the medians, the ratios, the parts and
 // the provenance go to one HDF5 file (a run with --benchmark_filter writes none unless --out).
 // --isa LEVEL (baseline, avx2, avx512, native) forces abi's instruction-set level, as MINV_ISA
@@ -164,7 +164,8 @@ void registerSolver(const std::string& solver, Topology t, int n, int m, int thr
 // Two one-thread abi pipelines at once, each with its own solver, configuration and output,
 // one per OpenMP thread (forked per iteration, as abi@2 forks per call): an iteration is two
 // inverses. 2·t(abi) / t(copies) is what two threads gain when nothing is shared but the
-// machine (its caches, its memory, its host): the ceiling of abi@2's speed-up here.
+// machine (its caches, its memory, its host): the reference for abi@2's speed-up. Not a strict
+// bound: on the noisy 2-vCPU guest single runs of it ranged from 1.56 to 2.10 at n = 2048.
 void registerCopies(Topology t, int n) {
   const std::string name = "copies/" + std::string(topologyName(t)) + "/abi/" + std::to_string(n);
   benchmark::RegisterBenchmark(
