@@ -69,6 +69,13 @@ def cpu_name(f):
     return name
 
 
+def short_sha(sha):
+    """A git_sha attribute shortened to 7 hex digits, keeping its "-dirty" mark (a binary built
+    from sources that differ from the commit)."""
+    sha = sha.decode() if isinstance(sha, bytes) else str(sha)
+    return sha.split("-")[0][:7] + ("-dirty" if sha.endswith("-dirty") else "")
+
+
 def provenance_line(f):
     """The result file's provenance in one line: commit, CPU, compiler, BLAS, date (the writer's
     attribute names, experiments/lib/provenance.hpp)."""

@@ -18,7 +18,7 @@ import os
 import h5py
 import matplotlib.pyplot as plt
 
-from common import PAPER, RESULTS, cpu_name, provenance_line, result_path, save
+from common import PAPER, RESULTS, cpu_name, provenance_line, result_path, save, short_sha
 
 # The sizes of the "abi vs every peer" table.
 TABLE_N = (16, 64, 256, 1024, 2048)
@@ -264,7 +264,7 @@ def machines_section():
             sw, pl = at(pg, "sweeps_us", 2048), at(pg, "pipeline_us", 2048)
             pct = at(a, "abi_percent_of_dgemm", 2048)
             cells = [f"`{name}`: {text(f.attrs.get('cpu_vendor', ''))} {sig}, "
-                     f"git {text(f.attrs.get('git_sha', '?'))[:7]}, rows {rows_mode}, "
+                     f"git {short_sha(f.attrs.get('git_sha', '?'))}, rows {rows_mode}, "
                      f"OpenBLAS {blas[-2] if len(blas) > 2 else '?'}",
                      cell("{:.2f}", at(r, "lapack_over_abi", 16)),
                      cell("{:.2f}", at(r, "lapack_over_abi", 32)),

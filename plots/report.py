@@ -9,7 +9,7 @@ import numpy as np
 
 from analysis import (EXPONENT_MIN_N, PAPER_CROSSOVER, PAPER_SPEEDUP, crossover, exponents,
                       load_accuracy, load_timing, series, skipped, speedups, text)
-from common import FIGURES, PAPER, RESULTS
+from common import FIGURES, PAPER, RESULTS, short_sha
 
 PAPER_EXPONENT = {"abi": 2, "abi-generic": 2, "lapack": 3, "ltl": 3, "ltdl": 3, "naive": 3,
                   "eigen": 3, "mujoco": 3, "dart": 2, "bullet": 2}
@@ -54,7 +54,7 @@ def centipede_machine():
         parts = [str(text(a[k])) for k in ("cpu_model", "cpu_vendor", "cpu_signature")
                  if k in a]
         ext = f"; {text(a['cpu_extensions'])}" if "cpu_extensions" in a else ""
-        return " ".join(parts) + ext + (f", git {text(a['git_sha'])[:7]}" if "git_sha" in a
+        return " ".join(parts) + ext + (f", git {short_sha(a['git_sha'])}" if "git_sha" in a
                                         else "")
 
 
