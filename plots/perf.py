@@ -4,7 +4,8 @@ and the figure of the Θ(n²) implementations, paper/figures/theta_n2.png/.pdf.
 
 Layout read (bench_abi's report()): runs/<benchmark>/repetitions_s with attribute median_s for
 every benchmark ("inverse/<topology>/<solver>/<n>", "solve/…/<n>/<m>", "store/<n>",
-"dgemm/<n>", "parts/serial/<part>/<n>"); ratios/<topology>/{n, abi_us, <peer>_over_abi};
+"dgemm/<n>", "copies/<topology>/abi/<n>", "parts/serial/<part>/<n>"); ratios/<topology>/{n,
+abi_us, <peer>_over_abi};
 ratios/<topology>/generic/{n, abi-generic_us, <peer>_over_abi_generic}; abi/<topology>/{n,
 abi_gflops, abi_percent_of_dgemm, abi_over_store, abi_2thread_speedup, abi_2copies_speedup
 (two one-thread pipelines at once, "copies/<topology>/abi/<n>": the reference for the
@@ -284,11 +285,11 @@ def machines_section():
             "operations per second over dgemm's, timed over the whole pipeline and over the "
             "sweeps alone (the parts table: configure and the writes excluded); the last column "
             "is abi forced to its avx2 level over the store, the nearest this run has to an "
-            "AVX2-only machine. Each two-thread cell is abi on 2 threads / abi on 1, then two "
-            "one-thread copies of abi run at once (each its own solver and output, one per "
-            "thread) / one alone: what two threads gained on that machine with nothing shared "
-            "but the machine itself, the reference for the first (— where the file predates "
-            "that benchmark).", "",
+            "AVX2-only machine. Each two-thread cell is abi on 1 thread's time / abi on 2 "
+            "threads' time, then twice one alone's time / the time of two one-thread copies of "
+            "abi run at once (each its own solver and output, one per thread): what two threads "
+            "gained on that machine with nothing shared but the machine itself, the reference "
+            "for the first (— where the file predates that benchmark).", "",
             "| machine | lapack / abi n = 16 | n = 32 | % of dgemm n = 2048, pipeline | sweeps | "
             "2 threads / 1 (/ 2 copies / 1) n = 512 | 1024 | 2048 | abi / store n = 4096 | "
             "avx2 level / store "

@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "bindings.hpp"
+#include "experiments/lib/output_matrix.hpp"
 #include "solvers/solver.hpp"
 
 namespace minv::python {
@@ -217,7 +218,8 @@ py::array solve(SolverHandle& h, const py::object& R_object, const py::object& o
 }
 
 // Seconds per inverse() call timed in C++: the median over `runs` of (time of `repetitions`
-// back-to-back calls) / repetitions, into `out` if given (the same memory as a Python loop).
+// back-to-back calls) / repetitions, into `out` if given (the same memory as a Python loop),
+// else into a zeroed matrix on huge pages like every output the harness times (outputMatrix).
 double timeInverse(SolverHandle& h, int repetitions, int runs, const py::object& out) {
   if (repetitions < 1 || runs < 1) throw py::value_error("repetitions and runs must be at least 1");
   const int nv = requirePrepared(h, "_time_inverse()").nv();
@@ -225,7 +227,7 @@ double timeInverse(SolverHandle& h, int repetitions, int runs, const py::object&
   Eigen::MatrixXd own;
   py::array keep;
   if (out.is_none()) {
-    own.resize(nv, nv);
+    own = outputMatrix(nv, nv);
   } else {
     keep = py::reinterpret_borrow<py::array>(out);
   }

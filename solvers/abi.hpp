@@ -93,10 +93,10 @@ inline constexpr int kAbiLanes<double> = MINV_ABI_LANES;
 // at every body; on a Zen 5 core (avx512 module) the sweeps then took 303 ns at n = 16 and
 // 149 us at 512, against 226 ns and 115 us as vectors. Wider blocks (16 lanes on AVX2 or SSE:
 // a row in 4 or 8 registers of 16) stay Eigen arrays: as vectors they ran 6–8 % slower at
-// n = 16 and 32; on avx2 with vectors, and so the groups of blocks below, the pipeline was
-// 10–16 % slower from n = 16 to 4096 (each level's time over avx512's, two runs alternated
-// with the Eigen arrays; 1024: 2.45 against 2.14-2.18). Otherwise (the counting scalar, a
-// one-column block) an Eigen array.
+// n = 16 and 32. Measured again once the groups below existed (which vectors enable, from
+// n = 256): avx2's pipeline as vectors was 5–17 % slower from n = 16 to 4096 (11 % at 16,
+// 12–15 % at 1024; avx2's time over avx512's, two runs alternated with the Eigen arrays).
+// Otherwise (the counting scalar, a one-column block) an Eigen array.
 #if defined(__GNUC__)
 #if defined(__AVX512F__)
 inline constexpr int kVectorDoubles = 8;
@@ -867,7 +867,7 @@ MINV_FLATTEN void abiInverseBlockGroup(const Model& model, const Kinematics<T>& 
                               std::min(first + kAbiGroupChunk - 1, last[j]), last[j], carry[j],
                               rows[j]);
   mark("velocity updates");
-  for (int j = 0; j < g; ++j) abiBlockTail<T, W>(*ws[j], c0 + j * W, W, x, ld, false);
+  for (int j = 0; j < g; ++j) abiBlockTail<T, W>(*ws[j], c0 + j * W, W, x, ld, /*upper=*/false);
 }
 
 // What the sweeps read of a configuration (S, U D⁻¹, D⁻¹), per thread: thread t reads copy t,

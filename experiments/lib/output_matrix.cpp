@@ -8,7 +8,7 @@ namespace minv {
 
 Eigen::MatrixXd outputMatrix(int rows, int cols) {
   Eigen::MatrixXd X(rows, cols);
-  // The 2 MiB pages wholly inside X's storage (none for a matrix under 4 MiB or so).
+  // The 2 MiB pages wholly inside X's storage (none under 2 MiB, at most one under 4 MiB).
   constexpr std::uintptr_t kHuge = std::uintptr_t(2) << 20;
   const auto first = reinterpret_cast<std::uintptr_t>(X.data());
   const std::uintptr_t begin = (first + kHuge - 1) / kHuge * kHuge;
