@@ -292,8 +292,7 @@ def machines_section():
             "for the first (— where the file predates that benchmark).", "",
             "| machine | lapack / abi n = 16 | n = 32 | % of dgemm n = 2048, pipeline | sweeps | "
             "2 threads / 1 (/ 2 copies / 1) n = 512 | 1024 | 2048 | abi / store n = 4096 | "
-            "avx2 level / store "
-            "n = 4096 |",
+            "avx2 level / store n = 4096 |",
             "|---|---|---|---|---|---|---|---|---|---|",
             "| target | ≥ 3 | ≥ 3 | | ≥ 35 | ≥ 1.85 | ≥ 1.85 | ≥ 1.85 | ≤ 2 | ≤ 2 |"] + rows
 
