@@ -237,6 +237,11 @@ MINV_INLINE void motionSubspace(const Model& model, const Three<T>* R, const Thr
 
 // I_i about the world origin from body i's world pose (R, p), as mcI (core/spatial.hpp) with
 // m, c = p + R·c_body and R Ī Rᵀ: R Ī, then one triangle of (R Ī) Rᵀ, the only one mcI reads.
+// Measured dead end: on AVX-512, I's columns put together in registers (permutes of h, m and
+// the triangle, one masked store a column instead of 36 scalar ones) made a loop of
+// computeKinematics alone 17 % faster at n = 512, but abi's configure (kinematics, then the
+// articulated pass) no faster: 13.0-13.3 us both (Zen 5 guest, bench_abi parts and a driver
+// of the avx512 module, two rounds alternated).
 template <class T>
 MINV_INLINE void worldInertia(const Model& model, const Three<T>* R, const Three<T>& p,
                               Kinematics<T>& kin, int i) {

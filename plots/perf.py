@@ -42,6 +42,11 @@ def cell(fmt, x):
     return "—" if x == 0 else fmt.format(x)
 
 
+def micro(x):
+    """A format for x µs with about three significant digits (0.43, 13.1, 399)."""
+    return "{:.2f}" if x < 10 else "{:.1f}" if x < 100 else "{:.0f}"
+
+
 def text(v):
     return v.decode() if isinstance(v, bytes) else v
 
@@ -178,14 +183,27 @@ def parts_section(f):
              "rows in a column are written together: the blocks timed whole, less the sweeps, "
              "which are timed one block at a time, so that the writes also carry what grouping "
              "changes in the sweeps). "
-             "A target that is missed is missed for the reason this table shows.", "",
-             "| n | " + " | ".join(h for _, h in PARTS) + " | inverse / store |",
-             "|---" * (len(PARTS) + 2) + "|"]
+             "A target that is missed is missed for the reason this table shows. "
+             "On two threads each thread makes its own configuration (one fork per call; "
+             "sharing one was slower), so two threads can at best take configure + (pipeline "
+             "− configure) / 2: the bound beside the measured '2 threads / 1' (— where not "
+             "measured).", "",
+             "| n | " + " | ".join(h for _, h in PARTS) +
+             " | inverse / store | 2 threads / 1: bound | measured |",
+             "|---" * (len(PARTS) + 4) + "|"]
+    two = f["abi"]["serial"] if "abi" in f and "serial" in f["abi"] else None
     for i, nv in enumerate(n):
         row = [g[d][()][i] for d, _ in PARTS]
         ratio = row[3] / row[5] if row[5] > 0 else 0
-        lines.append(f"| {int(nv)} | " + " | ".join(cell("{:.0f}", x) for x in row) +
-                     f" | {cell('{:.2f}', ratio)} |")
+        configure, pipeline = row[0], row[4]
+        bound = pipeline / (configure + (pipeline - configure) / 2) if pipeline > 0 else 0
+        measured = 0
+        if two is not None and "abi_2thread_speedup" in two:
+            at = [j for j, m in enumerate(two["n"][()]) if int(m) == int(nv)]
+            measured = two["abi_2thread_speedup"][()][at[0]] if at else 0
+        lines.append(f"| {int(nv)} | " + " | ".join(cell(micro(x), x) for x in row) +
+                     f" | {cell('{:.2f}', ratio)} | {cell('{:.2f}', bound)} |"
+                     f" {cell('{:.2f}', measured)} |")
     return lines
 
 
