@@ -8,6 +8,7 @@
 #include <cerrno>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -418,6 +419,30 @@ void checkUrdfDepth(const std::string& xml, const std::string& source) {
                      std::to_string(kMaxUrdfDepth) + ")");
 }
 
+// TinyXML (urdfdom's parser) takes a byte from 0xC2 to 0xF4 as the first of a 2-, 3- or 4-byte
+// UTF-8 sequence and steps over the whole sequence at once, even past the end of the text: a
+// file ending inside one (an unclosed attribute value ending "…\xF1", found by fuzzing) sent it
+// reading beyond the buffer. Such a file is refused before it is parsed. (Other invalid UTF-8 is
+// left to TinyXML, which keeps it in bounds; names that are not UTF-8 are replaced when written.)
+void checkUrdfText(const std::string& xml, const std::string& source) {
+  // (Only a sequence that starts in the last three bytes can run past the end.)
+  for (std::size_t i = xml.size() > 3 ? xml.size() - 3 : 0; i < xml.size(); ++i) {
+    const auto lead = static_cast<unsigned char>(xml[i]);
+    const std::size_t length = lead < 0xC2   ? 1
+                               : lead < 0xE0 ? 2
+                               : lead < 0xF0 ? 3
+                               : lead < 0xF5 ? 4
+                                             : 1;
+    if (i + length > xml.size()) {
+      char hex[8];
+      std::snprintf(hex, sizeof hex, "0x%02X", lead);
+      throw ModelError(source + ": not valid XML text: it ends inside a " + std::to_string(length) +
+                       "-byte UTF-8 sequence (byte " + hex + " at offset " + std::to_string(i) +
+                       " of " + std::to_string(xml.size()) + ")");
+    }
+  }
+}
+
 // urdfdom reads a number it cannot parse ("nan", "1e999", "abc") without complaint, as 0 or
 // as NaN, so a bad mass would be reported as "got 0". Before its values are used, every number
 // minv reads from the file (the inertial's mass, inertia and origin, the joint's origin and
@@ -478,6 +503,7 @@ struct UrdfRelease {
 
 Model readUrdf(const std::string& xml, const std::string& source, bool floating_base) {
   // Parse with urdfdom, which rejects several roots and dangling links.
+  checkUrdfText(xml, source);
   checkUrdfDepth(xml, source);
   urdf::ModelInterfaceSharedPtr u;
   const UrdfRelease release{u};

@@ -455,6 +455,14 @@ TEST(ModelIoTest, BadUrdfGivesClearErrors) {
   std::string negative = kInertial;
   negative.replace(negative.find("value=\"1\""), 9, "value=\"-2\"");
   EXPECT_ERROR(readUrdf(oneLink("continuous", "0 0 1", negative), "r.urdf", false), "mass");
+  // A text ending inside a multi-byte UTF-8 sequence (TinyXML would step past its end): refused
+  // before parsing, with the byte named; a complete sequence there is fine.
+  const std::string open = "<robot name=\"r\"><link name=\"a\"><inertial><origin xyz=\"1";
+  EXPECT_ERROR(readUrdf(open + "\xF1", "u.urdf", false),
+               "u.urdf: not valid XML text: it ends inside a 4-byte UTF-8 sequence (byte 0xF1");
+  EXPECT_ERROR(readUrdf(open + "\xE2\x82", "u.urdf", false), "3-byte UTF-8 sequence (byte 0xE2");
+  EXPECT_ERROR(readUrdf("\xC3", "u.urdf", false), "2-byte UTF-8 sequence (byte 0xC3 at offset 0");
+  EXPECT_ERROR(readUrdf(open + "\xE2\x82\xAC", "u.urdf", false), "not a valid URDF tree");
 }
 
 TEST(ModelIoTest, BadFilesGiveClearErrors) {
