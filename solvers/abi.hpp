@@ -874,6 +874,9 @@ MINV_FLATTEN void abiInverseBlockGroup(const Model& model, const Kinematics<T>& 
 // or the last copy where there are fewer (one copy: every thread reads the same). With
 // `make`, each thread first brings its own copy up to date, make(context, t), inside the same
 // parallel region as its columns (AbiSolver: one fork and one join per configure + inverse).
+// Measured against one copy made by thread 0 while thread 1 waited, then read by both (Zen 5
+// guest, a driver of this header, medians of 201-401 calls, 3 rounds): configure + inverse on
+// two threads 99 against 65 us at n = 512 and 270 against 228-231 us at 1024.
 template <class T>
 struct AbiConfigurations {
   const Kinematics<T>* kins;
