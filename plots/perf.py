@@ -197,10 +197,7 @@ def parts_section(f):
         ratio = row[3] / row[5] if row[5] > 0 else 0
         configure, pipeline = row[0], row[4]
         bound = pipeline / (configure + (pipeline - configure) / 2) if pipeline > 0 else 0
-        measured = 0
-        if two is not None and "abi_2thread_speedup" in two:
-            at = [j for j, m in enumerate(two["n"][()]) if int(m) == int(nv)]
-            measured = two["abi_2thread_speedup"][()][at[0]] if at else 0
+        measured = at(two, "abi_2thread_speedup", int(nv))
         lines.append(f"| {int(nv)} | " + " | ".join(cell(micro(x), x) for x in row) +
                      f" | {cell('{:.2f}', ratio)} | {cell('{:.2f}', bound)} |"
                      f" {cell('{:.2f}', measured)} |")
