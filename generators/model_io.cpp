@@ -17,6 +17,7 @@
 #include <set>
 #include <sstream>
 #include <string_view>
+#include <tuple>
 
 #include "generators/mjcf.hpp"
 
@@ -167,18 +168,20 @@ struct UrdfBody {
   std::string parent;  // owning body of the parent link; "" = the world
   Joint joint;
   std::string link;  // the link that names the body
-  std::vector<std::pair<urdf::InertialSharedPtr, Pose<double>>> parts;  // inertial, link pose
+  // Each merged link: its inertial, its pose in the body and its name.
+  std::vector<std::tuple<urdf::InertialSharedPtr, Pose<double>, std::string>> parts;
 };
 
 // Mass, centre of mass and inertia of the merged links, by the parallel-axis theorem.
 void combine(const UrdfBody& ub, const std::string& source, Body& body) {
   std::vector<Body> parts;
-  for (const auto& [in, T] : ub.parts) {
+  for (const auto& [in, T, name] : ub.parts) {
     // Each link of a merged body must be physical on its own, not only their sum.
     if (!(in->mass > 0))
-      throw ModelError(source + ": a link merged into body '" + ub.link +
-                       "' by a fixed joint has mass " + formatNumber(in->mass) +
-                       "; every link's mass must be positive");
+      throw ModelError(
+          source + ": link '" + name + "'" +
+          (name == ub.link ? "" : " (merged into body '" + ub.link + "' by a fixed joint)") +
+          " has mass " + formatNumber(in->mass) + "; every link's mass must be positive");
     Body b;
     const Pose<double> C = T * toPose(in->origin);  // inertial frame in the body frame
     Eigen::Matrix3d I;
@@ -519,6 +522,19 @@ Model readUrdf(const std::string& xml, const std::string& source, bool floating_
                        (capture.errors.empty() ? "rejected by urdfdom" : capture.errors));
   }
   checkUrdfNumbers(xml, source);
+  // One parent joint per link: urdfdom keeps the last of several and lists the link among the
+  // children of every parent, so that a cycle through the root's tree would never end below.
+  std::map<std::string, std::string> parentJoint;
+  for (const auto& [name, j] : u->joints_) {
+    if (j->parent_link_name == j->child_link_name)
+      throw ModelError(source + ": not a valid URDF tree: joint '" + name + "' joins link '" +
+                       j->child_link_name + "' to itself");
+    const auto [it, fresh] = parentJoint.emplace(j->child_link_name, name);
+    if (!fresh)
+      throw ModelError(source + ": not a valid URDF tree: link '" + j->child_link_name +
+                       "' is the child of two joints, '" + it->second + "' and '" + name +
+                       "' (a tree gives each link one parent joint; a cycle of joints?)");
+  }
   const urdf::LinkConstSharedPtr root = u->getRoot();
   // Walk the tree: each link's owning body ("" = world) and its pose in that body's frame.
   std::map<std::string, UrdfBody> bodies;
@@ -526,11 +542,17 @@ Model readUrdf(const std::string& xml, const std::string& source, bool floating_
   owner[root->name] = {floating_base ? root->name : "", {}};
   if (floating_base) bodies[root->name] = {"", floatingJoint(), root->name, {}};
   std::vector<urdf::LinkConstSharedPtr> stack = {root};
+  std::set<std::string> seen;
   while (!stack.empty()) {
     const urdf::LinkConstSharedPtr link = stack.back();
     stack.pop_back();
+    // (Unreachable after the check above; it keeps the walk finite whatever urdfdom links.)
+    if (!seen.insert(link->name).second)
+      throw ModelError(source + ": not a valid URDF tree: link '" + link->name +
+                       "' is reached twice from the root (a cycle of joints?)");
     const auto [body, T] = owner.at(link->name);
-    if (!body.empty() && link->inertial) bodies.at(body).parts.emplace_back(link->inertial, T);
+    if (!body.empty() && link->inertial)
+      bodies.at(body).parts.emplace_back(link->inertial, T, link->name);
     for (const urdf::LinkSharedPtr& c : link->child_links) {
       const urdf::Joint& j = *c->parent_joint;
       const Pose<double> place = T * toPose(j.parent_to_joint_origin_transform);
@@ -710,19 +732,24 @@ Eigen::VectorXd readConfiguration(const Model& model, std::istream& in, const st
   std::vector<int> line_of(model.nq(), 0);  // where each named entry was set
   int count = 0, line_no = 0;
   enum { Unknown, Plain, Named } form = Unknown;
-  // A finite double from the whole token, else ModelError naming the place.
+  // Whether the whole token reads as a double (nan and inf included), into *x.
+  auto parses = [](const std::string& token, double* x) {
+    char* end = nullptr;
+    *x = std::strtod(token.c_str(), &end);
+    return !token.empty() && end == token.c_str() + token.size();
+  };
+  // A finite double from the whole token (a subnormal one too), else ModelError naming the place.
   auto number = [&](const std::string& token, const std::string& what) {
-    std::size_t used = 0;
     double x = 0;
-    try {
-      x = std::stod(token, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used != token.size() || !std::isfinite(x))
-      throw ModelError(source + ":" + std::to_string(line_no) + ": " + what + " '" + token +
-                       "' is not a finite number");
-    return x;
+    const bool read = parses(token, &x);
+    if (read && std::isfinite(x)) return x;
+    // nan and inf spell an n; any other infinity is a number too large for a double.
+    const char* why = !read ? "is not a number"
+                      : token.find_first_of("nN") != std::string::npos
+                          ? "is not a finite number"
+                          : "is beyond the range of a double (about ±1.8e308)";
+    throw ModelError(source + ":" + std::to_string(line_no) + ": " + what + " '" + token + "' " +
+                     why);
   };
   std::string line;
   while (std::getline(in, line)) {
@@ -731,9 +758,12 @@ Eigen::VectorXd readConfiguration(const Model& model, std::istream& in, const st
     std::istringstream tokens(line);
     std::string first;
     if (!(tokens >> first)) continue;
+    // The first word decides the form: a number (nan and inf too, refused below) or a name.
     if (form == Unknown) {
+      double x = 0;
       const char c = first[0];
-      form = (std::isdigit(static_cast<unsigned char>(c)) || c == '-' || c == '+' || c == '.')
+      form = (std::isdigit(static_cast<unsigned char>(c)) || c == '-' || c == '+' || c == '.' ||
+              parses(first, &x))
                  ? Plain
                  : Named;
     }
@@ -780,6 +810,9 @@ Eigen::VectorXd readConfiguration(const Model& model, std::istream& in, const st
 }
 
 Eigen::VectorXd loadConfiguration(const Model& model, const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    throw ModelError("cannot open configuration file '" + path + "': is a directory");
   std::ifstream in(path);
   if (!in) throw ModelError("cannot open configuration file '" + path + "'");
   return readConfiguration(model, in, path);

@@ -106,8 +106,12 @@ TEST(Configuration, BadInputsNameTheProblem) {
   EXPECT_NE(message("nope 1").find("unknown q name 'nope'"), std::string::npos);
   EXPECT_NE(message("base_z 1\nbase_z 2").find("already given on line 1"), std::string::npos);
   EXPECT_NE(message("base_z nan").find("is not a finite number"), std::string::npos);
-  EXPECT_NE(message("base_z 1e999").find("is not a finite number"), std::string::npos);
-  EXPECT_NE(message("base_z 1x").find("'1x' is not a finite number"), std::string::npos);
+  EXPECT_NE(message("base_z 1e999").find("'1e999' is beyond the range of a double"),
+            std::string::npos);
+  EXPECT_NE(message("base_z 1x").find("'1x' is not a number"), std::string::npos);
+  // A subnormal value is a finite number; nan as the first word is an entry, not a name.
+  EXPECT_EQ(message("base_z 1e-320"), "");
+  EXPECT_NE(message("nan").find("entry q[0] 'nan' is not a finite number"), std::string::npos);
   EXPECT_NE(message("base_qw 0").find("zero quaternion"), std::string::npos);
   EXPECT_NE(message("# nothing\n").find("no configuration"), std::string::npos);
   EXPECT_NE(message("base_z").find("expected 'name value'"), std::string::npos);

@@ -8,6 +8,7 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -439,6 +440,29 @@ TEST(ModelIoTest, BadUrdfGivesClearErrors) {
                         "<child link=\"a\"/></joint></robot>",
                         "cycle.urdf", false),
                "cycle.urdf: not a valid URDF tree");
+  // Links w, a, b with revolute joints name: parent -> child; each of these once hung the walk
+  // (a cycle below the root) or dropped a joint (a link with two parents).
+  auto chain = [](std::vector<std::array<const char*, 3>> joints) {
+    std::string x = "<robot name=\"r\"><link name=\"w\"/>";
+    for (const char* l : {"a", "b"})
+      x += std::string("<link name=\"") + l + "\">" + kInertial + "</link>";
+    for (const auto& [name, parent, child] : joints)
+      x += std::string("<joint name=\"") + name + "\" type=\"revolute\"><parent link=\"" + parent +
+           "\"/><child link=\"" + child +
+           "\"/><axis xyz=\"0 0 1\"/><limit lower=\"-1\" "
+           "upper=\"1\" effort=\"1\" velocity=\"1\"/></joint>";
+    return x + "</robot>";
+  };
+  EXPECT_NO_THROW(readUrdf(chain({{"j1", "w", "a"}, {"j2", "a", "b"}}), "r.urdf", false));
+  EXPECT_ERROR(
+      readUrdf(chain({{"j1", "w", "a"}, {"j2", "a", "b"}, {"j3", "b", "a"}}), "c.urdf", false),
+      "c.urdf: not a valid URDF tree: link 'a' is the child of two joints, 'j1' and 'j3'");
+  EXPECT_ERROR(
+      readUrdf(chain({{"j1", "w", "b"}, {"j2", "a", "b"}, {"j3", "w", "a"}}), "t.urdf", false),
+      "link 'b' is the child of two joints, 'j1' and 'j2'");
+  EXPECT_ERROR(
+      readUrdf(chain({{"j0", "w", "b"}, {"j1", "w", "a"}, {"j2", "a", "a"}}), "s.urdf", false),
+      "s.urdf: not a valid URDF tree: joint 'j2' joins link 'a' to itself");
   EXPECT_ERROR(readUrdf("<robot name=\"r\"><link name=\"a\"/><joint name=\"x\" type=\"fixed\">"
                         "<parent link=\"ghost\"/><child link=\"a\"/></joint></robot>",
                         "ghost.urdf", false),
@@ -454,7 +478,14 @@ TEST(ModelIoTest, BadUrdfGivesClearErrors) {
   EXPECT_ERROR(readUrdf(oneLink("continuous", "0 0 1", heavy), "r.urdf", false), "triangle");
   std::string negative = kInertial;
   negative.replace(negative.find("value=\"1\""), 9, "value=\"-2\"");
-  EXPECT_ERROR(readUrdf(oneLink("continuous", "0 0 1", negative), "r.urdf", false), "mass");
+  EXPECT_ERROR(readUrdf(oneLink("continuous", "0 0 1", negative), "r.urdf", false),
+               "r.urdf: link 'a' has mass -2; every link's mass must be positive");
+  std::string merged = oneLink("continuous", "0 0 1", kInertial);
+  merged.insert(merged.find("</robot>"), "<link name=\"tip\">" + negative +
+                                             "</link><joint name=\"f\" type=\"fixed\">"
+                                             "<parent link=\"a\"/><child link=\"tip\"/></joint>");
+  EXPECT_ERROR(readUrdf(merged, "m.urdf", false),
+               "m.urdf: link 'tip' (merged into body 'a' by a fixed joint) has mass -2");
   // A text ending inside a multi-byte UTF-8 sequence (TinyXML would step past its end): refused
   // before parsing, with the byte named; a complete sequence there is fine.
   const std::string open = "<robot name=\"r\"><link name=\"a\"><inertial><origin xyz=\"1";
