@@ -62,7 +62,7 @@ Simulator::Simulator(const Model& model, std::vector<ContactPoint> points, SimOp
       aba_(model),
       abi_(model),
       cia_(model, 3 * static_cast<int>(points_.size())) {
-  if (o_.threads < 1) throw std::invalid_argument("threads must be at least 1");
+  checkThreads(o_.threads);
   // Kinematics and articulated inertias: abi's own pass, compiled for the level abi uses
   // (solvers/abi_variants.hpp: this CPU's highest, or MINV_ISA's).
   articulate_ = abiVariant(abiLevel()).articulate;

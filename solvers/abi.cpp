@@ -8,7 +8,7 @@ namespace minv {
 
 // A team of another size gets its copies anew, from the last configuration if there was one.
 void AbiSolver::setThreads(int n) {
-  threads_ = std::max(1, n);
+  threads_ = std::clamp(n, 1, kMaxThreads);
   if (model_ && team() != static_cast<int>(kin_.size())) allocate();
 }
 

@@ -11,6 +11,7 @@
 #include <Eigen/Core>
 #include <functional>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -24,14 +25,25 @@ namespace minv {
 using MatrixOut = Eigen::Ref<Eigen::MatrixXd>;
 using MatrixIn = const Eigen::Ref<const Eigen::MatrixXd>&;
 
+// The most threads a solver or the simulator takes: OpenMP could not start a team of tens of
+// thousands (libgomp crashed at 65 536), and abi keeps a configuration per thread.
+inline constexpr int kMaxThreads = 512;
+// Throws std::invalid_argument naming `what` unless 1 ≤ n ≤ kMaxThreads.
+inline void checkThreads(int n, const std::string& what = "threads") {
+  if (n < 1 || n > kMaxThreads)
+    throw std::invalid_argument(what + " must be between 1 and " + std::to_string(kMaxThreads) +
+                                ", got " + std::to_string(n));
+}
+
 class Solver {
  public:
   virtual ~Solver() = default;
   // Whether this solver can handle the tree at all (a peer library may have limits); if not,
   // *why says so. The conformance suite and the experiments skip it with that reason.
   virtual bool supports(const Model& model, std::string* why) const { return true; }
-  // Threads this solver may use from now on (default 1). Solvers without a parallel path
-  // ignore it; `threads()` says what they will actually use.
+  // Threads this solver may use from now on (default 1; 1 ≤ n ≤ kMaxThreads, which callers
+  // taking n from a user check with checkThreads). Solvers without a parallel path ignore it;
+  // `threads()` says what they will actually use.
   virtual void setThreads(int n) {}
   virtual int threads() const { return 1; }
   // Allocate for this tree; the model must outlive the solver.

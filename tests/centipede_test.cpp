@@ -89,10 +89,28 @@ TEST(CentipedeCli, SimulateErrorsAreOneLine) {
   out = run("simulate centipede --segments 3 --dt -1 --out " + path, &status);
   EXPECT_EQ(status, 2);
   EXPECT_FALSE(std::filesystem::exists(path));
-  out = run("simulate centipede --segments 3 --threads 0 --out " + path, &status);
+  out = run("simulate centipede --segments 3 --dt inf --out " + path, &status);
   EXPECT_EQ(status, 2);
-  EXPECT_NE(out.find("--threads must be at least 1"), std::string::npos) << out;
-  EXPECT_FALSE(std::filesystem::exists(path));
+  EXPECT_NE(out.find("--dt must be a finite positive step"), std::string::npos) << out;
+  // 0 and a team OpenMP cannot start (65 536 crashed libgomp) are both refused.
+  for (const char* threads : {"0", "65536"}) {
+    out =
+        run("simulate centipede --segments 3 --threads " + std::string(threads) + " --out " + path,
+            &status);
+    EXPECT_EQ(status, 2);
+    EXPECT_NE(out.find("--threads must be between 1 and 512, got " + std::string(threads)),
+              std::string::npos)
+        << out;
+    EXPECT_FALSE(std::filesystem::exists(path));
+  }
+  // A sweep refused for its options leaves no file (it once left one with provenance only).
+  for (const char* bad : {"--steps 0", "--dt nan", "--dt -1", "--threads 65536"}) {
+    out = run("simulate sweep --segments 1 --solvers abi " + std::string(bad) + " --out " + path,
+              &status);
+    EXPECT_EQ(status, 2) << bad;
+    EXPECT_EQ(out.rfind("minv: error: ", 0), 0u) << out;
+    EXPECT_FALSE(std::filesystem::exists(path)) << bad;
+  }
 }
 
 // The net displacement line of a short walk.

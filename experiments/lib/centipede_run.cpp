@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <memory>
 #include <ostream>
@@ -12,6 +13,7 @@
 #include "sim/gait.hpp"
 #include "sim/mujoco_step.hpp"
 #include "solvers/openblas.hpp"
+#include "solvers/solver.hpp"
 
 namespace minv::sim {
 
@@ -112,11 +114,18 @@ constexpr int kWarmupSteps = 3;
 // A sweep point's paths take turns in this many rounds of steps.
 constexpr int kRounds = 20;
 
-// --threads: at least 1, and 1 for mujoco-step.
-void checkThreads(const std::string& path, int threads) {
-  if (threads < 1) throw std::invalid_argument("--threads must be at least 1");
+// --threads: 1 … kMaxThreads, and 1 for mujoco-step.
+void checkPathThreads(const std::string& path, int threads) {
+  checkThreads(threads, "--threads");
   if (path == kMujocoStepPath && threads != 1)
     throw std::invalid_argument("path mujoco-step runs MuJoCo 2.2's mj_step, which has one thread");
+}
+
+// --steps at least 1, --dt finite and positive (an infinite step only diverges).
+void checkStepping(int steps, double dt) {
+  if (steps < 1) throw std::invalid_argument("--steps must be at least 1");
+  if (!(dt > 0) || !std::isfinite(dt))
+    throw std::invalid_argument("--dt must be a finite positive step (s)");
 }
 
 std::string fmt(const char* f, double a, double b = 0, double c = 0, double d = 0) {
@@ -155,12 +164,11 @@ class CentipedeRun {
 
 // The centipede of the options (bad ones throw before anything is built).
 Centipede checkedCentipede(const CentipedeRunOptions& o) {
-  if (o.steps < 1) throw std::invalid_argument("--steps must be at least 1");
-  if (!(o.dt > 0)) throw std::invalid_argument("--dt must be positive");
+  checkStepping(o.steps, o.dt);
   const bool mujoco = o.solver == kMujocoStepPath;
   if (mujoco && !haveMujocoStep())
     throw std::invalid_argument("path mujoco-step needs MuJoCo, and this build has none");
-  checkThreads(o.solver, o.threads);
+  checkPathThreads(o.solver, o.threads);
   if (mujoco && o.friction_dirs != 4)
     throw std::invalid_argument("path mujoco-step has MuJoCo's pyramidal cone of 4 directions");
   // BLAS on one thread unless a solver path asks for more (its setThreads), as the benchmarks
@@ -368,10 +376,11 @@ void runCentipedeSweep(const CentipedeSweepOptions& o, std::ostream& log) {
       throw std::invalid_argument("unknown solver '" + s + "'");
     if (s == kMujocoStepPath && !haveMujocoStep())
       throw std::invalid_argument("path mujoco-step needs MuJoCo, and this build has none");
-    checkThreads(s, o.threads);  // before any point: a refused path is not a skipped point
+    checkPathThreads(s, o.threads);  // before any point: a refused path is not a skipped point
   }
   for (int s : o.segments)
     if (s < 1) throw std::invalid_argument("--segments values must be at least 1");
+  checkStepping(o.steps, o.dt);  // before the file: a refused sweep leaves none
   H5Writer h5 = H5Writer::append(o.out);
   writeProvenance(h5, "/");
   h5.setAttribute("/", "steps", o.steps);
