@@ -260,6 +260,19 @@ Model Model::create(std::vector<int> parent, std::vector<Joint> joints, std::vec
   m.parent_ = std::move(parent);
   m.joints_ = std::move(joints);
   m.bodies_ = std::move(bodies);
+  // So must the coordinates' derived names (a joint "a_qw" beside a spherical "a"; a joint
+  // "joint2" beside an unnamed joint 2): a configuration file sets q by them.
+  for (const auto& [names, what] : {std::pair{m.qNames(), "q"}, {m.dofNames(), "v (DOF)"}}) {
+    std::map<std::string, std::size_t> seen;
+    for (std::size_t k = 0; k < names.size(); ++k)
+      if (const auto [it, fresh] = seen.emplace(names[k], k); !fresh)
+        throw ModelError("two coordinates of " + std::string(what) + " are both named '" +
+                         names[k] + "' (" + std::to_string(it->second) + " and " +
+                         std::to_string(k) +
+                         "): rename a joint (names: a 1-DOF joint's own, <joint>_qw … for a "
+                         "spherical or floating joint's coordinates, joint<i> for an unnamed "
+                         "joint i)");
+  }
   return m;
 }
 

@@ -13,6 +13,7 @@
 
 #include <pybind11/pybind11.h>
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <mutex>
 #include <string>
@@ -34,5 +35,10 @@ void waitFor(Lock& lock) {
 
 // A seed from a Python int: ValueError for a negative or too large one.
 std::uint64_t seedFrom(const py::int_& seed, const char* what = "seed");
+
+// A configuration or other vector from anything numpy reads as a 1-D array of real numbers;
+// ValueError naming `what` for a complex one (whose imaginary part would be dropped) or any
+// other shape or type.
+Eigen::VectorXd realVector(const py::handle& v, const char* what);
 
 }  // namespace minv::python

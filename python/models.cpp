@@ -7,6 +7,7 @@
 // computation, so a wrong size, a NaN or a zero quaternion gives the `minv` command's message.
 // Arrays come back as new numpy arrays (float64; M is (nv, nv)). Paths are str or os.PathLike.
 #include <pybind11/eigen.h>
+#include <pybind11/numpy.h>
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
@@ -32,6 +33,22 @@ std::uint64_t seedFrom(const py::int_& seed, const char* what) {
                           py::repr(seed).cast<std::string>());
   }
   return v;
+}
+
+Eigen::VectorXd realVector(const py::handle& v, const char* what) {
+  const auto reject = [&](const std::string& got) {
+    return py::value_error(std::string(what) + " must be a 1-D array of real numbers; got " + got);
+  };
+  const py::array a = py::array::ensure(v);
+  if (!a) throw reject("a " + py::str(py::type::of(v).attr("__name__")).cast<std::string>());
+  if (a.dtype().kind() == 'c') throw reject("a complex array");
+  using F = py::array_t<double, py::array::forcecast>;
+  const F d = F::ensure(a);
+  if (!d) throw reject("an array of dtype " + py::str(a.dtype()).cast<std::string>());
+  if (d.ndim() != 1) throw reject("an array of " + std::to_string(d.ndim()) + " dimensions");
+  Eigen::VectorXd out(d.shape(0));
+  for (py::ssize_t i = 0; i < d.shape(0); ++i) out[i] = d.at(i);
+  return out;
 }
 
 void bindModels(py::module_& m) {
@@ -147,7 +164,8 @@ body. Deterministic in the seed.)doc");
   // The mass matrix.
   m.def(
       "mass_matrix",
-      [](const Model& model, const Eigen::VectorXd& q) {
+      [](const Model& model, const py::object& q_object) {
+        const Eigen::VectorXd q = realVector(q_object, "q");
         model.checkConfiguration(q);
         py::gil_scoped_release release;
         return massMatrix(model, q);
@@ -158,8 +176,9 @@ body. Deterministic in the seed.)doc");
   // Operation counts (the GIL stays held: the counters are per thread, reset per count).
   m.def(
       "flops",
-      [](const std::string& name, const Model& model, const Eigen::VectorXd& q, int m) {
+      [](const std::string& name, const Model& model, const py::object& q_object, int m) {
         if (m < 0) throw py::value_error("m must be >= 0, got " + std::to_string(m));
+        const Eigen::VectorXd q = realVector(q_object, "q");
         model.checkConfiguration(q);
         py::dict out;
         for (const StageCount& s : countSolver(name, model, q, m)) {

@@ -146,7 +146,8 @@ void prepare(SolverHandle& h, const py::object& model_object) {
   h.model = &model;
 }
 
-void configure(SolverHandle& h, const Eigen::VectorXd& q) {
+void configure(SolverHandle& h, const py::object& q_object) {
+  const Eigen::VectorXd q = realVector(q_object, "q");
   std::unique_lock lock(h.busy, std::defer_lock);
   waitFor(lock);
   const Model& model = requirePrepared(h, "configure(q)");
@@ -173,6 +174,11 @@ py::array inverse(SolverHandle& h, const py::object& out) {
   lock.lock();
   requireSameSize(h, nv, "inverse()");
   h.solver->inverse(X);
+  // M singular to double precision (masses near the smallest doubles): an error, not NaN in X.
+  if (!X.allFinite())
+    throw std::domain_error(
+        "inverse(): M⁻¹ is not finite: M is singular in double precision "
+        "(masses or inertias too small?)");
   return result;
 }
 
@@ -209,11 +215,23 @@ py::array solve(SolverHandle& h, const py::object& R_object, const py::object& o
   if (rlo < xhi && xlo < rhi) throw py::value_error("out must not share memory with R");
   if (m == 0) return result;
   Eigen::Map<const Eigen::MatrixXd> Rmap(R.data(), nv, m);
-  std::unique_lock lock(h.busy, std::defer_lock);
-  py::gil_scoped_release release;
-  lock.lock();
-  requireSameSize(h, nv, "solve(R)");
-  h.solver->solve(Rmap, X);
+  // A NaN or an infinity in R would only come back as NaN in X (lapack even blamed M for it).
+  if (!Rmap.allFinite()) {
+    Eigen::Index i = 0, j = 0;
+    (!Rmap.array().isFinite()).cast<int>().maxCoeff(&i, &j);
+    throw reject("an array with the non-finite entry " + std::to_string(Rmap(i, j)) + " at (" +
+                 std::to_string(i) + ", " + std::to_string(j) + ")");
+  }
+  {
+    std::unique_lock lock(h.busy, std::defer_lock);
+    py::gil_scoped_release release;
+    lock.lock();
+    requireSameSize(h, nv, "solve(R)");
+    h.solver->solve(Rmap, X);
+  }
+  // Finite R, yet M⁻¹R beyond the largest double: an error, not a silent infinity in X.
+  if (!X.allFinite())
+    throw py::value_error("solve(R): M⁻¹R overflows (an entry is beyond ±1.8e308); scale R down");
   return result;
 }
 
@@ -294,8 +312,9 @@ the C++ solver runs.)doc")
       .def(
           "set_threads",
           [](SolverHandle& h, int n) {
-            if (n < 1)
-              throw py::value_error("threads must be at least 1, got " + std::to_string(n));
+            if (n < 1 || n > kMaxThreads)
+              throw py::value_error("threads must be between 1 and " + std::to_string(kMaxThreads) +
+                                    ", got " + std::to_string(n));
             std::unique_lock lock(h.busy, std::defer_lock);
             waitFor(lock);
             h.solver->setThreads(n);

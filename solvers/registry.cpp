@@ -1,6 +1,7 @@
 // The one registry: a solver is one adapter class plus one line here (or, from outside this
 // repository, one registerSolver() call).
 #include <algorithm>
+#include <cstdio>
 #include <mutex>
 #include <sstream>
 #include <stdexcept>
@@ -86,20 +87,39 @@ const SolverEntry* findSolver(const std::string& name) {
   return nullptr;
 }
 
+// `name` with every byte outside printable ASCII as \xNN: a message quoting it stays one line of
+// valid text (a lone byte of a UTF-8 sequence emptied Python's message, a NUL cut it short).
+static std::string escaped(const std::string& name) {
+  std::string out;
+  for (const char c : name) {
+    const auto b = static_cast<unsigned char>(c);
+    if (b >= 0x20 && b < 0x7F) {
+      out += c;
+    } else {
+      char hex[5];
+      std::snprintf(hex, sizeof hex, "\\x%02X", b);
+      out += hex;
+    }
+  }
+  return out;
+}
+
 std::unique_ptr<Solver> makeSolver(const std::string& name) {
   if (const SolverEntry* e = findSolver(name)) return e->make();
   std::ostringstream known;
   for (const SolverEntry& e : solverRegistry()) known << (known.tellp() ? ", " : "") << e.name;
-  throw std::invalid_argument("unknown solver '" + name + "' (known: " + known.str() + ")");
+  throw std::invalid_argument("unknown solver '" + escaped(name) + "' (known: " + known.str() +
+                              ")");
 }
 
 std::string solverNameProblem(const std::string& name) {
   if (name.empty()) return "a solver name must not be empty";
-  if (name.size() > 32) return "solver name '" + name + "' is longer than 32 characters";
+  const std::string quoted = "solver name '" + escaped(name) + "'";
+  if (name.size() > 32) return quoted + " is longer than 32 characters";
   for (char c : name)
     if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-'))
-      return "solver name '" + name + "' has the character '" + std::string(1, c) +
-             "'; use letters, digits, '_' and '-'";
+      return quoted + " has the character '" + escaped(std::string(1, c)) +
+             "'; use ASCII letters, digits, '_' and '-'";
   if (!std::isalnum(static_cast<unsigned char>(name[0])))
     return "solver name '" + name + "' must start with a letter or a digit";
   if (name == "all" || name == "test-impulse" || name == "contact-inertia" || name == "mujoco-step")

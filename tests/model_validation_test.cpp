@@ -59,6 +59,25 @@ TEST(ModelValidation, DuplicateNamesNameBothPlaces) {
   Chain e;
   e.joints[0].name = e.joints[1].name = "";
   EXPECT_EQ(e.error(), "");
+  // Nor may two coordinates' derived names clash: an unnamed joint 1 is "joint1".
+  Chain f;
+  f.joints[1].name = "";
+  f.joints[2].name = "joint1";
+  EXPECT_NE(f.error().find("two coordinates of q are both named 'joint1' (1 and 2)"),
+            std::string::npos)
+      << f.error();
+  // A spherical joint "a" names its quaternion a_qw … a_qz, and its DOFs a_wx … a_wz.
+  Chain g;
+  g.joints[0].type = JointType::Spherical;
+  g.joints[0].name = "a";
+  g.joints[1].name = "a_qz";
+  EXPECT_NE(g.error().find("two coordinates of q are both named 'a_qz' (3 and 4)"),
+            std::string::npos)
+      << g.error();
+  g.joints[1].name = "a_wy";
+  EXPECT_NE(g.error().find("two coordinates of v (DOF) are both named 'a_wy' (1 and 3)"),
+            std::string::npos)
+      << g.error();
 }
 
 TEST(ModelValidation, NumbersInMessagesKeepTheirValue) {

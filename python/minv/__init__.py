@@ -29,6 +29,8 @@ Errors
 
 import atexit
 import contextlib
+import math
+import numbers
 import os
 import re
 import sys
@@ -258,9 +260,23 @@ def compare(solver, sizes=(8, 16, 32, 64), topologies=("serial", "branched"),
     if isinstance(against, str):
         against = (against,)
     sizes, topologies, against = list(sizes), list(topologies), list(against)
+    # Arguments the sweep would refuse, refused before anything is created.
+    if not sizes or any(isinstance(n, bool) or not isinstance(n, numbers.Integral) or n < 1
+                        for n in sizes):
+        raise ValueError(f"sizes must be positive integers, got {sizes!r}")
+    if int(repetitions) < 1 or not (math.isfinite(float(min_time)) and float(min_time) > 0):
+        raise ValueError(f"repetitions must be at least 1 and min_time a positive number of "
+                         f"seconds, got {repetitions!r} and {min_time!r}")
     path = os.fspath(out)
+    if os.path.isdir(path):
+        raise IsADirectoryError(f"out must be a file, and {path!r} is a directory")
+    # The folders this call creates, removed again (if still empty) when it fails.
     folder = os.path.dirname(os.path.abspath(path))
-    os.makedirs(folder, exist_ok=True)
+    created = []
+    while not os.path.exists(folder) and folder != os.path.dirname(folder):
+        created.append(folder)
+        folder = os.path.dirname(folder)
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
     work = path if resume else path + ".compare-tmp"
     if work != path and os.path.exists(work):
         os.remove(work)
@@ -277,5 +293,8 @@ def compare(solver, sizes=(8, 16, 32, 64), topologies=("serial", "branched"),
     except BaseException:
         if work != path and os.path.exists(work):
             os.remove(work)
+        for made in created:  # deepest first
+            if os.path.isdir(made) and not os.listdir(made):
+                os.rmdir(made)
         raise
     return Comparison(path, name, against + [name], topologies, sizes, stats)

@@ -144,6 +144,41 @@ def test_bad_right_hand_sides():
         solver.solve(np.ones(4, dtype=complex))
     with pytest.raises(ValueError, match="cannot convert"):
         solver.solve("abcd")
+    # A NaN or infinity in R is refused (it came back as NaN in X; lapack blamed M for it).
+    for name in minv.solver_names():
+        s = minv.make_solver(name)
+        if not s.supports(model):
+            continue
+        s.prepare(model)
+        s.configure(model.neutral())
+        R = np.ones((4, 2))
+        R[2, 1] = np.nan
+        with pytest.raises(ValueError, match=r"non-finite entry nan at \(2, 1\)"):
+            s.solve(R)
+        with pytest.raises(ValueError, match=r"non-finite entry -inf at \(0, 0\)"):
+            s.solve(np.array([-np.inf, 0, 0, 0]))
+    # Finite R whose M⁻¹R overflows: an error, not infinities in X.
+    with pytest.raises(ValueError, match="overflows"):
+        solver.solve(np.full(4, 1e308))
+
+
+def test_complex_configurations_and_thread_counts():
+    model = minv.random_tree("serial", 4)
+    solver = minv.make_solver("abi")
+    solver.prepare(model)
+    q = model.neutral().astype(complex) + 1j
+    with pytest.raises(ValueError, match="q must be a 1-D array of real numbers; got a complex"):
+        solver.configure(q)
+    with pytest.raises(ValueError, match="complex"):
+        minv.mass_matrix(model, q)
+    with pytest.raises(ValueError, match="2 dimensions"):
+        solver.configure(np.zeros((4, 1)))
+    solver.configure(list(model.neutral()))  # a list of floats is fine
+    for n in (0, 513, 65536):
+        with pytest.raises(ValueError, match=f"threads must be between 1 and 512, got {n}"):
+            solver.set_threads(n)
+    solver.set_threads(512)
+    assert np.allclose(solver.inverse() @ minv.mass_matrix(model, model.neutral()), np.eye(4))
 
 
 def test_interpreter_survives_every_error():

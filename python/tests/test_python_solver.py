@@ -184,6 +184,29 @@ def test_compare_unregisters_on_error(tmp_path):
     with pytest.raises(minv.ModelError):
         minv.compare(ScipyCholesky, topologies=("ring",), out=out)
     assert "scipycholesky" not in minv.solver_names()
+    # Refused before anything is made: no new folder is left behind, no sweep runs first.
+    for bad in ((0,), (-4,), (), (2.5,)):
+        with pytest.raises(ValueError, match="sizes must be positive integers"):
+            minv.compare(ScipyCholesky, sizes=bad, out=tmp_path / "new" / "deeper" / "c.h5")
+    assert not os.path.exists(tmp_path / "new")
+    with pytest.raises(ValueError, match="min_time"):
+        minv.compare(ScipyCholesky, min_time=float("inf"), out=out)
+    with pytest.raises(IsADirectoryError, match="is a directory"):
+        minv.compare(ScipyCholesky, out=tmp_path)
+    # A failure in the sweep also removes the folders the call made.
+    with pytest.raises(minv.ModelError):
+        minv.compare(ScipyCholesky, topologies=("ring",), out=tmp_path / "made" / "c.h5")
+    assert not os.path.exists(tmp_path / "made")
+
+
+def test_solver_names_in_messages_are_text():
+    """A name with a non-ASCII letter or a NUL is refused with the byte spelled out."""
+    with pytest.raises(ValueError, match=r"solver name '\\xC3\\xA9' has the character '\\xC3'"):
+        minv.register_solver("é", ScipyCholesky)
+    with pytest.raises(ValueError, match=r"solver name 'ab\\x00c' has the character '\\x00'"):
+        minv.register_solver("ab\x00c", ScipyCholesky)
+    with pytest.raises(ValueError, match=r"unknown solver 'x\\x00y'"):
+        minv.make_solver("x\x00y")
 
 
 def test_compare_resume_keeps_points(tmp_path):
