@@ -326,6 +326,39 @@ TEST(H5Writer, AppendModeSurvivesAKilledProcess) {
   EXPECT_FALSE(w.hasGroup("p1"));
 }
 
+// A create-mode run killed by SIGTERM, SIGINT or SIGHUP (no destructors) leaves no tmp file, and
+// still dies of that signal; a committed result of an earlier writer stays.
+TEST(H5Writer, KilledCreateModeRunLeavesNoTmpFile) {
+  for (const int sig : {SIGTERM, SIGINT, SIGHUP}) {
+    H5Dir dir;
+    const std::string path = dir / "killed.h5", kept = dir / "kept.h5";
+    const pid_t pid = fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      try {
+        H5Writer done(kept);
+        done.setAttribute("/", "version", 1);
+        done.commit();
+        H5Writer w(path);
+        H5Writer moved(std::move(w));  // the slot moves with the file
+        moved.writeMatrix("x", Eigen::MatrixXd::Identity(3, 3));
+        moved.flush();
+        if (!fs::exists(path + ".tmp")) _exit(4);
+        raise(sig);
+      } catch (...) {
+      }
+      _exit(3);
+    }
+    int status = 0;
+    waitpid(pid, &status, 0);
+    ASSERT_TRUE(WIFSIGNALED(status)) << "signal " << sig << ", status " << status;
+    EXPECT_EQ(WTERMSIG(status), sig);
+    EXPECT_FALSE(fs::exists(path + ".tmp")) << "signal " << sig;
+    EXPECT_FALSE(fs::exists(path));
+    EXPECT_TRUE(fs::exists(kept));
+  }
+}
+
 // Provenance: every attribute present and plausible.
 TEST(H5Provenance, WritesAllAttributes) {
   H5Dir dir;

@@ -1,6 +1,12 @@
 #include "experiments/lib/h5writer.hpp"
 
+#include <unistd.h>
+
+#include <atomic>
+#include <csignal>
+#include <cstring>
 #include <filesystem>
+#include <mutex>
 #include <stdexcept>
 #include <system_error>
 #include <utility>
@@ -8,6 +14,61 @@
 namespace minv {
 
 namespace {
+
+// The tmp files of the create-mode writers alive, for the signal handler below: fixed slots of
+// fixed buffers, since a handler may only call async-signal-safe functions (unlink, raise).
+constexpr int kTmpSlots = 32;
+struct TmpSlot {
+  std::atomic<bool> used{false};
+  char path[4096];
+};
+TmpSlot tmpSlots[kTmpSlots];
+std::mutex tmpMutex;
+
+// SIGINT, SIGTERM, SIGHUP: remove the live tmp files, then die of the signal as before.
+extern "C" void removeTmpFilesAndDie(int sig) {
+  for (TmpSlot& slot : tmpSlots)
+    if (slot.used.load(std::memory_order_acquire)) unlink(slot.path);
+  std::signal(sig, SIG_DFL);
+  std::raise(sig);
+}
+
+// Once per process: the handler for each of those signals that still has the default action
+// (a host such as Python keeps its own).
+void installTmpCleanup() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    for (const int sig : {SIGINT, SIGTERM, SIGHUP}) {
+      struct sigaction old {};
+      if (sigaction(sig, nullptr, &old) != 0 || (old.sa_flags & SA_SIGINFO) ||
+          old.sa_handler != SIG_DFL)
+        continue;
+      struct sigaction now {};
+      now.sa_handler = removeTmpFilesAndDie;
+      sigemptyset(&now.sa_mask);
+      sigaction(sig, &now, nullptr);
+    }
+  });
+}
+
+// A slot for `path` (-1 when it is too long or every slot is taken: then only the destructor
+// removes that file).
+int registerTmp(const std::string& path) {
+  if (path.size() >= sizeof(TmpSlot::path)) return -1;
+  installTmpCleanup();
+  const std::lock_guard lock(tmpMutex);
+  for (int i = 0; i < kTmpSlots; ++i) {
+    if (tmpSlots[i].used.load(std::memory_order_relaxed)) continue;
+    std::memcpy(tmpSlots[i].path, path.c_str(), path.size() + 1);
+    tmpSlots[i].used.store(true, std::memory_order_release);
+    return i;
+  }
+  return -1;
+}
+
+void unregisterTmp(int slot) {
+  if (slot >= 0) tmpSlots[slot].used.store(false, std::memory_order_release);
+}
 
 // An HDF5 identifier closed by its own close function when it goes out of scope.
 class Hid {
@@ -106,8 +167,13 @@ H5Writer::H5Writer(const std::string& path, bool append)
     file_ = H5Fopen(file_path_.c_str(), H5F_ACC_RDWR, fapl);
     if (file_ < 0) fail("open for appending", file_path_);
   } else {
+    // Create mode: the tmp file is known to the signal handler before it exists.
+    if (!append) tmp_slot_ = registerTmp(std::filesystem::absolute(file_path_, ec).string());
     file_ = H5Fcreate(file_path_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
-    if (file_ < 0) fail("create", file_path_);
+    if (file_ < 0) {
+      unregisterTmp(std::exchange(tmp_slot_, -1));
+      fail("create", file_path_);
+    }
   }
 }
 
@@ -116,7 +182,8 @@ H5Writer::H5Writer(H5Writer&& other) noexcept
       file_path_(std::move(other.file_path_)),
       append_(other.append_),
       committed_(other.committed_),
-      file_(std::exchange(other.file_, -1)) {
+      file_(std::exchange(other.file_, -1)),
+      tmp_slot_(std::exchange(other.tmp_slot_, -1)) {
   other.committed_ = true;  // the moved-from writer owns no file and must not remove one
 }
 
@@ -127,6 +194,7 @@ H5Writer::~H5Writer() {
     std::error_code ec;
     std::filesystem::remove(file_path_, ec);
   }
+  unregisterTmp(tmp_slot_);
 }
 
 void H5Writer::requireOpen(const char* what) const {
@@ -312,6 +380,7 @@ void H5Writer::commit() {
   if (ec)
     throw std::runtime_error("cannot rename " + file_path_ + " to " + path_ + ": " + ec.message());
   committed_ = true;
+  unregisterTmp(std::exchange(tmp_slot_, -1));
 }
 
 }  // namespace minv
