@@ -10,9 +10,11 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <utility>
 
 #include "solvers/solver.hpp"
 
@@ -484,6 +486,197 @@ TEST_F(CliBadInput, DuplicateJointNames) {
   expectFailure(
       "solve --model dup.json --out out.h5",
       "joint of body 1 ('b1'): the joint name 'jj' is already used by the joint of body 0");
+}
+
+}  // namespace
+}  // namespace minv
+
+namespace minv {
+namespace {
+
+// A three-body chain whose masses and inertias are those of jsonModel's bodies times `scale`
+// (M scales with them, so cond(M) does not change).
+std::string scaledModel(double scale) {
+  auto times = [scale](double v) {
+    std::ostringstream s;
+    s.precision(17);
+    s << v * scale;
+    return s.str();
+  };
+  JsonBody b;
+  b.mass = times(1.5);
+  b.inertia =
+      "[[" + times(0.1) + ", 0, 0], [0, " + times(0.1) + ", 0], [0, 0, " + times(0.05) + "]]";
+  JsonBody c = b, d = b;
+  c.parent = 0;
+  d.parent = 1;
+  d.axis = "[1, 0, 0]";
+  return jsonModel({b, c, d});
+}
+
+// Masses of 1e-200 and 1e30 are valid: every solver's residuals are finite and small (the
+// norms of M and Minv once underflowed or overflowed to "not finite" or a false 0), and cond
+// is that of the unit-mass model.
+TEST_F(CliRoundTrip, TinyAndHugeMassesGiveSmallFiniteResiduals) {
+  write("unit.json", scaledModel(1));
+  ASSERT_EQ(minv("solve --model unit.json --solver lapack --out unit.h5").status, 0);
+  const double cond = H5File(path("unit.h5")).real("/", "cond");
+  for (const double scale : {1e-200, 1e-160, 1e29 / 1.5}) {
+    SCOPED_TRACE(scale);
+    write("m.json", scaledModel(scale));
+    const CliRun s = minv("solve --model m.json --solver all --rhs 2 --out r.h5");
+    ASSERT_EQ(s.status, 0) << s.err;
+    std::istringstream lines(s.out);
+    for (std::string line; std::getline(lines, line);)
+      if (line[0] != '#') {
+        EXPECT_EQ(line.find("inf"), std::string::npos) << line;
+        EXPECT_EQ(line.find("nan"), std::string::npos) << line;
+      }
+    H5File f(path("r.h5"));
+    EXPECT_NEAR(f.real("/", "cond"), cond, 1e-9 * cond);
+    // The norms in long double (range 1e±4932), against the ratio of the two residuals.
+    const Eigen::Matrix<long double, -1, -1> M = f.matrix("M").cast<long double>();
+    int solved = 0;
+    for (const std::string& name : solverNames()) {
+      const std::string g = "/solvers/" + name;
+      if (!f.has(g + "/Minv")) continue;  // a peer that refuses such masses says so
+      ++solved;
+      const long double norms = M.norm() * f.matrix(g + "/Minv").cast<long double>().norm();
+      const double ratio = static_cast<double>(std::sqrt(3.0L) / norms);
+      if (f.real(g, "residual_identity") > 0)
+        EXPECT_NEAR(f.real(g, "residual") / f.real(g, "residual_identity"), ratio, 1e-9 * ratio)
+            << name;
+      EXPECT_LT(f.real(g, "residual"), 1e-14) << name;
+      EXPECT_LT(f.real(g, "residual_identity"), 1e-12) << name;
+      EXPECT_LT(f.real(g, "solve_residual"), 1e-12) << name;
+    }
+    EXPECT_GE(solved, 6);
+  }
+}
+
+// A mass of 1e-300 beside 1e30: cond(M) ≈ 1e330 is beyond the double range; stored as inf with
+// a finite cond_log10, said so on stdout, and the solve still succeeds.
+TEST_F(CliRoundTrip, ConditionBeyondTheDoubleRange) {
+  JsonBody b;
+  b.mass = "1e30";
+  b.inertia = "[[1e29, 0, 0], [0, 1e29, 0], [0, 0, 5e28]]";
+  JsonBody c = b, d;
+  c.parent = 0;
+  d.parent = 1;
+  d.mass = "1e-300";
+  d.inertia = "[[1e-301, 0, 0], [0, 1e-301, 0], [0, 0, 5e-302]]";
+  write("graded.json", jsonModel({b, c, d}));
+  const CliRun s = minv("solve --model graded.json --solver ltdl --out r.h5");
+  ASSERT_EQ(s.status, 0) << s.err;
+  EXPECT_NE(s.out.find("beyond the double range"), std::string::npos) << s.out;
+  H5File f(path("r.h5"));
+  EXPECT_TRUE(std::isinf(f.real("/", "cond")));
+  EXPECT_GT(f.real("/", "cond_log10"), 308);
+  EXPECT_LT(f.real("/", "cond_log10"), 340);
+  EXPECT_LT(f.real("/solvers/ltdl", "residual_identity"), 1e-12);
+}
+
+TEST_F(CliBadInput, CheckMaxNBelowOne) {
+  for (const char* n : {"0", "-5"})
+    expectFailure(std::string("check --solver abi --max-n ") + n,
+                  "--max-n must be at least 1 (the smallest case is n = 1), got " + std::string(n));
+}
+
+// Given values are checked (never replaced by the defaults) before the file is created; an
+// infinite min time once hung and left the file.
+TEST_F(CliBadInput, TimeMinTimeAndRepetitions) {
+  for (const char* t : {"inf", "nan", "-1", "0", "4000"})
+    expectFailure(std::string("time --mode tiny --min-time ") + t + " --out out.h5",
+                  "--min-time must be above 0 and at most 3600 s, got " + std::string(t));
+  for (const char* r : {"0", "-3", "1001"})
+    expectFailure(std::string("time --mode tiny --repetitions ") + r + " --out out.h5",
+                  "--repetitions must be between 1 and 1000, got " + std::string(r));
+  expectFailure("time --mode tiny --repetitions 99999999999 --out out.h5", "out of range");
+}
+
+// simulate: bad frames, steps, dt and threads, before any file (a sweep once left one with
+// provenance only; libgomp crashed at 65536 threads).
+TEST_F(CliBadInput, SimulateOptions) {
+  expectFailure("simulate centipede --segments 2 --steps 3 --frames -1 --out out.h5",
+                "--frames must be at least 0, got -1");
+  expectFailure("simulate centipede --segments 2 --steps 3 --dt inf --out out.h5",
+                "--dt must be a finite positive step (s), got inf");
+  expectFailure("simulate centipede --segments 1 --steps 2 --threads 65536 --out out.h5",
+                "--threads must be between 1 and 512, got 65536");
+  const std::pair<const char*, const char*> sweep[] = {
+      {"--steps 0", "--steps must be at least 1"},
+      {"--dt nan", "--dt must be a finite positive step (s), got nan"},
+      {"--dt -1", "--dt must be a finite positive step (s), got -1"},
+      {"--threads 65536", "--threads must be between 1 and 512, got 65536"},
+      {"--threads 0", "--threads must be between 1 and 512, got 0"},
+      {"--segments 5,100000000", "--segments must be between 1 and 10000, got 100000000"}};
+  for (const auto& [bad, telling] : sweep)
+    expectFailure(std::string("simulate sweep --segments 1 --solvers abi ") + bad + " --out sw.h5",
+                  telling, "sw.h5");
+}
+
+// Seeds beyond 2^64 − 1 are refused, not clamped; 2^64 − 1 itself is a seed.
+TEST_F(CliBadInput, SeedOutOfRange) {
+  const std::string range = "expected an integer from 0 to 18446744073709551615";
+  expectFailure("generate --topology serial --n 3 --seed 99999999999999999999999 --out t.json",
+                "--seed: " + range, "t.json");
+  expectFailure("generate --topology serial --n 3 --seed 18446744073709551616 --out t.json",
+                "--seed: " + range, "t.json");
+  ASSERT_EQ(
+      minv("generate --topology serial --n 3 --seed 18446744073709551615 --out m.json").status, 0);
+  expectFailure("solve --model m.json --q-seed 99999999999999999999999 --out out.h5",
+                "--q-seed: " + range);
+  expectFailure("solve --model m.json --rhs 1 --rhs-seed 99999999999999999999999 --out out.h5",
+                "--rhs-seed: " + range);
+}
+
+// merge takes timing-sweep shards only: a flops file, a solve result or a text file is refused
+// by name, and nothing is written (they once merged to "0 points").
+TEST_F(CliBadInput, MergeRefusesNonTimingFiles) {
+  ASSERT_EQ(minv("experiment flops --max-n 2 --out flops.h5").status, 0);
+  ASSERT_EQ(minv("generate --topology serial --n 3 --out m.json").status, 0);
+  ASSERT_EQ(minv("solve --model m.json --solver abi --out solve.h5").status, 0);
+  expectFailure("merge --out out.h5 flops.h5",
+                "input file 'flops.h5' is not a timing-sweep shard file (experiment 'flops'");
+  expectFailure("merge --out out.h5 solve.h5",
+                "input file 'solve.h5' is not a timing-sweep shard file (no experiment attribute");
+  expectFailure("merge --out out.h5 m.json", "input file 'm.json' is not an HDF5 file");
+}
+
+// Sizes no research use reaches are refused with the limit, before anything is allocated.
+TEST_F(CliBadInput, HugeSizes) {
+  ASSERT_EQ(minv("generate --topology serial --n 3 --out m.json").status, 0);
+  expectFailure("generate --topology serial --n 2147483647 --out t.json",
+                "--n must be between 1 and 1000000, got 2147483647", "t.json");
+  expectFailure("generate --topology serial --n 99999999999 --out t.json", "out of range",
+                "t.json");
+  expectFailure("generate --topology centipede --segments 100000000 --out t.json",
+                "--segments must be between 1 and 10000, got 100000000", "t.json");
+  expectFailure("solve --model m.json --rhs 2000000000 --out out.h5",
+                "--rhs: expected an integer from 0 to 100000, got '2000000000'");
+  expectFailure("flops --topology serial --n 2000000000", "--n must be between 1 and 16384");
+  expectFailure("flops --topology serial --n 3 --rhs 2000000000",
+                "--rhs: expected an integer from 0 to 100000");
+  expectFailure("experiment flops --max-n 2000000000 --out out.h5",
+                "--max-n must be between 2 and 16384");
+  expectFailure("simulate centipede --segments 100000000 --out out.h5",
+                "--segments must be between 1 and 10000, got 100000000");
+}
+
+// Messages that name the choices and the actual problem.
+TEST_F(CliBadInput, SubcommandTopologyAndDirectoryMessages) {
+  expectFailure("experiment bogus --out out.h5",
+                "unknown experiment subcommand 'bogus' (expected flops or accuracy)");
+  expectFailure("experiment", "experiment needs a subcommand: flops or accuracy");
+  expectFailure("simulate bogus",
+                "unknown simulate subcommand 'bogus' (expected centipede or sweep)");
+  expectFailure("generate --topology foo --n 3 --out t.json",
+                "unknown topology 'foo' (expected serial, branched or centipede)", "t.json");
+  write("file.json", "{}");
+  expectFailure("generate --topology serial --n 3 --out file.json/t.json",
+                "output directory 'file.json' is not a directory", "file.json/t.json");
+  expectFailure("solve --model file.json --out file.json/out.h5",
+                "output directory 'file.json' is not a directory", "file.json/out.h5");
 }
 
 }  // namespace

@@ -53,20 +53,25 @@
 // nv, nq, nb, max_depth, topology, q_seed, rhs, rhs_seed and the provenance
 // (experiments/lib/provenance.hpp); per solver a group /solvers/<name> with dataset Minv and
 // attributes summary, residual, residual_identity, time_s, repetitions and (with --rhs)
-// solve_residual; the root also holds cond, cond₂(M) from its eigenvalues. A solver
-// that does not support the tree is skipped under `all` (its group holds only `skipped`,
-// the reason) and is an error when named.
+// solve_residual; the root also holds cond, cond₂(M) from its eigenvalues (inf beyond the
+// double range, e.g. a mass of 1e-300 beside 1e30), and cond_log10, its log10 (finite there).
+// A solver that does not support the tree is skipped under `all` (its group holds only
+// `skipped`, the reason) and is an error when named.
 #include "experiments/lib/cli.hpp"
 
 #include <CLI/CLI.hpp>
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <limits>
+#include <new>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -93,6 +98,21 @@ namespace {
 constexpr int kErrorExit = 2;
 constexpr int kRepetitions = 5;
 
+// Upper bounds of the sizes a user gives: far beyond any research use, and each well before
+// memory runs out (past them a command would only end in "out of memory").
+constexpr int kMaxLinks = 1000000;       // generate --n (the tree and its file grow as n)
+constexpr int kMaxCountedLinks = 16384;  // flops --n, experiment flops --max-n (dense, as n²)
+constexpr int kMaxSegments = 10000;      // centipede segments
+constexpr int kMaxRhs = 100000;          // --rhs columns
+constexpr int kMaxRepetitions = 1000;    // time --repetitions
+constexpr double kMaxMinTime = 3600;     // time --min-time, seconds
+
+// What the command is allocating, named in an "out of memory" message.
+std::string& allocating() {
+  static std::string what;
+  return what;
+}
+
 // Print "<program>: error: <message>" as a single line and give the error exit status.
 int reportError(const std::string& program, std::string message) {
   std::replace(message.begin(), message.end(), '\n', ' ');
@@ -100,21 +120,70 @@ int reportError(const std::string& program, std::string message) {
   return kErrorExit;
 }
 
-// A CLI11 check for seeds and counts: a plain non-negative integer (no sign, no wrap-around).
-const CLI::Validator kNonNegative(
+// A CLI11 check for seeds and counts: a plain integer from 0 to `max` (no sign, no
+// wrap-around, no clamping to the type's largest value).
+CLI::Validator nonNegative(std::uint64_t max) {
+  return CLI::Validator(
+      [max](std::string& value) -> std::string {
+        const std::string range = "an integer from 0 to " + std::to_string(max);
+        if (value.empty() || value.find_first_not_of("0123456789") != std::string::npos)
+          return "expected " + range + ", got '" + value + "'";
+        std::uint64_t v = 0;
+        for (const char c : value) {
+          const unsigned digit = static_cast<unsigned>(c - '0');
+          if (v > (max - digit) / 10) return "expected " + range + ", got '" + value + "'";
+          v = 10 * v + digit;
+        }
+        return {};
+      },
+      "", "non-negative integer");
+}
+const CLI::Validator kSeed = nonNegative(std::numeric_limits<std::uint64_t>::max());
+const CLI::Validator kRhs = nonNegative(kMaxRhs);
+
+// A CLI11 check for int options: a decimal integer within int's range (said so, rather than
+// CLI11's "Could not convert"); the command then checks its own bounds.
+const CLI::Validator kInt(
     [](std::string& value) -> std::string {
-      if (value.empty() || value.find_first_not_of("0123456789") != std::string::npos)
-        return "expected a non-negative integer, got '" + value + "'";
+      const std::size_t start = !value.empty() && (value[0] == '-' || value[0] == '+') ? 1 : 0;
+      if (value.size() == start ||
+          value.find_first_not_of("0123456789", start) != std::string::npos)
+        return "expected an integer, got '" + value + "'";
+      long long v = 0;
+      const char* first = value.data() + (value[0] == '+' ? 1 : 0);
+      const auto [end, ec] = std::from_chars(first, value.data() + value.size(), v);
+      if (ec != std::errc() || v < std::numeric_limits<int>::min() ||
+          v > std::numeric_limits<int>::max())
+        return "'" + value + "' is out of range (at most " +
+               std::to_string(std::numeric_limits<int>::max()) + " in size)";
       return {};
     },
-    "", "non-negative integer");
+    "", "integer");
+
+// `value` of option `name` must lie in [lo, hi]; else std::invalid_argument saying so.
+void checkRange(const std::string& name, long long value, long long lo, long long hi,
+                const std::string& why = "") {
+  if (value < lo || value > hi)
+    throw std::invalid_argument(name + " must be between " + std::to_string(lo) + " and " +
+                                std::to_string(hi) + why + ", got " + std::to_string(value));
+}
 
 // Fail fast, before any work, if the output file's directory does not exist.
 void checkOutputDirectory(const std::string& path) {
   const std::filesystem::path dir = std::filesystem::path(path).parent_path();
   std::error_code ec;
-  if (!dir.empty() && !std::filesystem::is_directory(dir, ec))
-    throw std::runtime_error("output directory '" + dir.string() + "' does not exist");
+  if (dir.empty() || std::filesystem::is_directory(dir, ec)) return;
+  if (std::filesystem::exists(dir, ec))
+    throw std::runtime_error("output directory '" + dir.string() + "' is not a directory");
+  throw std::runtime_error("output directory '" + dir.string() + "' does not exist");
+}
+
+// a / (b·c) without overflow or underflow on the way (only the quotient itself can leave the
+// double range): mantissas and exponents apart. 0 / (b·c) = 0 for b·c > 0; x / 0 = inf.
+double quotient(double a, double b, double c = 1) {
+  int ea = 0, eb = 0, ec = 0;
+  const double ma = std::frexp(a, &ea), mb = std::frexp(b, &eb), mc = std::frexp(c, &ec);
+  return std::ldexp(ma / (mb * mc), ea - eb - ec);
 }
 
 struct GenerateOptions {
@@ -139,17 +208,34 @@ std::string topologyOf(const Model& model) {
   return "serial";
 }
 
+// saveModel, and no FILE.tmp left behind whatever it throws (running out of memory while it
+// writes the text, too).
+void saveModelOrRemoveTmp(const Model& model, const std::string& path) {
+  try {
+    saveModel(model, path);
+  } catch (...) {
+    std::error_code ec;
+    std::filesystem::remove(path + ".tmp", ec);
+    throw;
+  }
+}
+
 // generate: parse the names, build the tree, save it atomically, print one line.
 int runGenerate(const GenerateOptions& o) {
   checkOutputDirectory(o.out);
+  if (o.topology != "serial" && o.topology != "branched" && o.topology != "centipede")
+    throw std::invalid_argument("unknown topology '" + o.topology +
+                                "' (expected serial, branched or centipede)");
   if (o.topology == "centipede") {
     if (o.segments < 1)
       throw std::invalid_argument("--segments must be at least 1 for a centipede");
+    checkRange("--segments", o.segments, 1, kMaxSegments);
+    allocating() = "a centipede of " + std::to_string(o.segments) + " segments";
     CentipedeOptions co;
     co.segments = o.segments;
     co.segment_joint = segmentJointFromName(o.segment_joint);
     const Model model = makeCentipede(co).model;
-    saveModel(model, o.out);
+    saveModelOrRemoveTmp(model, o.out);
     std::printf("bodies=%d nv=%d max_depth=%d segments=%d segment_joint=%s file=%s\n", model.nb(),
                 model.nv(), model.maxDepth(), o.segments, o.segment_joint.c_str(), o.out.c_str());
     return 0;
@@ -157,11 +243,13 @@ int runGenerate(const GenerateOptions& o) {
   TreeOptions t;
   t.topology = topologyFromName(o.topology);
   t.joints = jointSetFromName(o.joints);
+  checkRange("--n", o.n, 1, kMaxLinks);
+  allocating() = "a random tree of " + std::to_string(o.n) + " links";
   t.n = o.n;
   t.seed = o.seed;
   t.floating_base = o.floating_base;
   const Model model = randomTree(t);
-  saveModel(model, o.out);
+  saveModelOrRemoveTmp(model, o.out);
   std::printf("bodies=%d nv=%d max_depth=%d file=%s\n", model.nb(), model.nv(), model.maxDepth(),
               o.out.c_str());
   return 0;
@@ -174,6 +262,33 @@ std::vector<const SolverEntry*> selectSolvers(const std::string& name) {
     if (name == "all" || e.name == name) out.push_back(&e);
   if (out.empty()) makeSolver(name);  // throws with the list of known names
   return out;
+}
+
+// cond₂(M) = λmax/λmin, scale-invariant, with its log10 (finite where cond itself is beyond
+// the double range). Eigen's solver scales M by its largest entry, so a λmin below about
+// 1e-8·λmax is lost to rounding (or underflow, for a mass of 1e-300 beside 1e30); then
+// λmin = 1/λmax(M⁻¹), with M⁻¹ from Cholesky (accurate for a graded M), the product taken by
+// mantissa and exponent. Both are inf for an M that is singular to double precision.
+struct Condition {
+  double value, log10;
+};
+Condition conditionNumber(const Eigen::MatrixXd& M) {
+  using Eigen::SelfAdjointEigenSolver;
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  const Eigen::VectorXd ev =
+      SelfAdjointEigenSolver<Eigen::MatrixXd>(M, Eigen::EigenvaluesOnly).eigenvalues();
+  const double hi = ev.maxCoeff(), lo = ev.minCoeff();
+  if (lo > 1e-8 * hi) return {hi / lo, std::log10(hi / lo)};
+  const Eigen::LLT<Eigen::MatrixXd> llt(M);
+  if (llt.info() != Eigen::Success) return {kInf, kInf};
+  const Eigen::MatrixXd inverse = llt.solve(Eigen::MatrixXd::Identity(M.rows(), M.cols()));
+  if (!inverse.allFinite()) return {kInf, kInf};
+  const double hi_inverse = SelfAdjointEigenSolver<Eigen::MatrixXd>(inverse, Eigen::EigenvaluesOnly)
+                                .eigenvalues()
+                                .maxCoeff();
+  int e1 = 0, e2 = 0;
+  const double m = std::frexp(hi, &e1) * std::frexp(hi_inverse, &e2);
+  return {std::ldexp(m, e1 + e2), std::log10(m) + (e1 + e2) * std::log10(2.0)};
 }
 
 double seconds(std::chrono::steady_clock::duration d) {
@@ -204,10 +319,16 @@ void runSolver(const SolverEntry& e, const Model& model, const Eigen::VectorXd& 
   solver->prepare(model);
   solver->configure(q);
   solver->inverse(X);
-  const double defect = (M * X - Eigen::MatrixXd::Identity(nv, nv)).norm();
-  const double residual = defect / (M.norm() * X.norm());
+  // Masses of 1e-200 or 1e30 are valid: M·X is formed as it is (each product M_ik·X_kj is at
+  // most cond(M) in size, so none overflows, and one that underflows is below 1e-308 against
+  // the entries 0 and 1 of M·X), the norms with stableNorm (a sum of squares would underflow
+  // or overflow) and the quotient by mantissa and exponent.
+  const double defect = (M * X - Eigen::MatrixXd::Identity(nv, nv)).stableNorm();
+  const double residual = quotient(defect, M.stableNorm(), X.stableNorm());
   const double residual_identity = defect / std::sqrt(static_cast<double>(nv));
-  if (!std::isfinite(residual))
+  if (!X.allFinite())
+    throw std::runtime_error("solver '" + e.name + "': Minv has non-finite entries");
+  if (!std::isfinite(residual) || !std::isfinite(defect))
     throw std::runtime_error("solver '" + e.name + "': residual ‖M·Minv − 1‖ is not finite");
   // Timing: median of kRepetitions runs of configure + inverse.
   std::vector<double> times;
@@ -232,7 +353,8 @@ void runSolver(const SolverEntry& e, const Model& model, const Eigen::VectorXd& 
     Eigen::MatrixXd Y(nv, o.rhs);
     solver->solve(R, Y);
     const Eigen::MatrixXd ref = X * R;
-    const double solve_residual = (Y - ref).norm() / std::max(ref.norm(), 1e-300);
+    const double solve_residual =
+        quotient((Y - ref).stableNorm(), std::max(ref.stableNorm(), 1e-300));
     if (!std::isfinite(solve_residual))
       throw std::runtime_error("solver '" + e.name + "': solve residual is not finite");
     h5.setAttribute(group, "solve_residual", solve_residual);
@@ -249,15 +371,31 @@ void runSolver(const SolverEntry& e, const Model& model, const Eigen::VectorXd& 
 int runSolve(const SolveOptions& o) {
   const std::vector<const SolverEntry*> solvers = selectSolvers(o.solver);
   checkOutputDirectory(o.out);
+  allocating() = "the model " + o.model;
   const Model model = loadModel(o.model, o.floating_base);
   const Eigen::VectorXd q =
       o.q_file.empty() ? randomConfiguration(model, o.q_seed) : loadConfiguration(model, o.q_file);
   model.checkConfiguration(q);
+  char size[64];
+  std::snprintf(size, sizeof size, "nv × nv matrices (nv = %d, %.3g GB each)", model.nv(),
+                8e-9 * model.nv() * model.nv());
+  allocating() = size;
   const Eigen::MatrixXd M = massMatrix(model, q);
   if (!M.allFinite()) throw std::runtime_error("the mass matrix M has non-finite entries");
   const std::string topology = topologyOf(model);
-  const Eigen::VectorXd ev = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(M).eigenvalues();
-  const double cond = ev.maxCoeff() / ev.minCoeff();
+  const Condition condition = conditionNumber(M);
+  const double cond = condition.value;
+  if (std::isnan(cond)) throw std::runtime_error("cond(M) is not a number");
+  // The printed cond(M): beyond the double range as a power of ten (stored as inf).
+  char cond_text[96];
+  if (std::isfinite(cond))
+    std::snprintf(cond_text, sizeof cond_text, "%.2e", cond);
+  else if (std::isfinite(condition.log10))
+    std::snprintf(
+        cond_text, sizeof cond_text, "%.2fe+%.0f (beyond the double range; stored as inf)",
+        std::pow(10.0, condition.log10 - std::floor(condition.log10)), std::floor(condition.log10));
+  else
+    std::snprintf(cond_text, sizeof cond_text, "inf (M is singular to double precision)");
 
   // Root: the problem (q, M, numbering) and where it came from.
   H5Writer h5(o.out);
@@ -277,6 +415,7 @@ int runSolve(const SolveOptions& o) {
   h5.setAttribute("/", "max_depth", model.maxDepth());
   h5.setAttribute("/", "topology", topology);
   h5.setAttribute("/", "cond", cond);
+  h5.setAttribute("/", "cond_log10", condition.log10);
   h5.setAttribute("/", "q_seed", o.q_seed);
   if (!o.q_file.empty()) h5.setAttribute("/", "q_file", o.q_file);
   h5.setAttribute("/", "rhs", o.rhs);
@@ -286,9 +425,9 @@ int runSolve(const SolveOptions& o) {
   // One row per solver.
   const std::string q_from =
       o.q_file.empty() ? "q_seed " + std::to_string(o.q_seed) : "q from " + o.q_file;
-  std::printf("# %s\n# model %s: %d bodies, nv %d, max depth %d, %s, cond(M) %.2e\n",
+  std::printf("# %s\n# model %s: %d bodies, nv %d, max depth %d, %s, cond(M) %s\n",
               provenanceSummary().c_str(), o.model.c_str(), model.nb(), model.nv(),
-              model.maxDepth(), q_from.c_str(), cond);
+              model.maxDepth(), q_from.c_str(), cond_text);
   std::printf("# residual = |M X - I|_F / (|M|_F |X|_F); residual_I = |M X - I|_F / sqrt(n)\n");
   // The name column is as wide as the longest name.
   int width = 6;
@@ -312,6 +451,8 @@ struct FlopsOptions {
 // flops: per-stage operation counts of one or every solver on one random tree.
 int runFlops(const FlopsOptions& o) {
   const std::vector<const SolverEntry*> solvers = selectSolvers(o.solver);
+  checkRange("--n", o.n, 1, kMaxCountedLinks, " for flops (its counted matrices are dense)");
+  allocating() = "the counted run of " + std::to_string(o.n) + " links";
   const Model model = randomTree(
       {topologyFromName(o.topology), o.n, o.seed, o.floating_base, jointSetFromName(o.joints)});
   const Eigen::VectorXd q = randomConfiguration(model, o.seed);
@@ -346,6 +487,9 @@ struct ExperimentOptions {
 int runFlopsExperiment(const ExperimentOptions& o) {
   checkOutputDirectory(o.out);
   if (o.max_n < 2) throw std::invalid_argument("--max-n must be at least 2");
+  checkRange("--max-n", o.max_n, 2, kMaxCountedLinks,
+             " for experiment flops (its counted matrices are dense)");
+  allocating() = "the counted runs up to n = " + std::to_string(o.max_n);
   FlopsSweep sweep;
   sweep.n.clear();
   for (int n = 2; n <= o.max_n; n *= 2) sweep.n.push_back(n);
@@ -388,9 +532,21 @@ struct SimulateOptions {
   sim::CentipedeSweepOptions sweep;
 };
 
+// --steps, --dt and --threads of a walk or a sweep, before any file is created.
+void checkStepping(int steps, double dt, int threads) {
+  sim::checkStepping(steps, dt);
+  checkThreads(threads, "--threads");  // 1 … kMaxThreads (solvers/solver.hpp)
+}
+
 // simulate centipede: one walk, progress on stdout, the net displacement, optionally HDF5.
 int runSimulate(SimulateOptions o) {
   if (!o.out.empty()) checkOutputDirectory(o.out);
+  checkRange("--segments", o.run.segments, 1, kMaxSegments);
+  checkStepping(o.run.steps, o.run.dt, o.run.threads);
+  if (o.run.frames < 0)
+    throw std::invalid_argument("--frames must be at least 0, got " + std::to_string(o.run.frames));
+  allocating() = "a walk of a centipede of " + std::to_string(o.run.segments) + " segments, " +
+                 std::to_string(o.run.steps) + " steps";
   std::unique_ptr<H5Writer> h5;
   if (!o.out.empty()) h5 = std::make_unique<H5Writer>(o.out);
   const sim::CentipedeRunResult r = sim::runCentipede(o.run, std::cout, h5.get(), "/");
@@ -419,6 +575,8 @@ int runSimulate(SimulateOptions o) {
 // simulate sweep: the Figure 4 timings, one point per (segments, solver).
 int runSimulateSweep(const SimulateOptions& o) {
   checkOutputDirectory(o.sweep.out);
+  for (const int S : o.sweep.segments) checkRange("--segments", S, 1, kMaxSegments);
+  checkStepping(o.sweep.steps, o.sweep.dt, o.sweep.threads);
   sim::runCentipedeSweep(o.sweep, std::cout);
   return 0;
 }
@@ -432,6 +590,10 @@ struct CheckOptions {
 // any fails.
 int runCheck(const CheckOptions& o) {
   const std::vector<const SolverEntry*> solvers = selectSolvers(o.solver);
+  // Below 1 no case would run (the smallest is n = 1).
+  if (o.max_n < 1)
+    throw std::invalid_argument("--max-n must be at least 1 (the smallest case is n = 1), got " +
+                                std::to_string(o.max_n));
   ConformanceOptions options;
   options.max_n = o.max_n;
   bool all_passed = true;
@@ -449,14 +611,26 @@ struct TimeOptions {
   std::vector<std::string> solvers;
   double min_time = -1;
   int repetitions = -1;
-  bool list = false;
+  bool min_time_given = false, repetitions_given = false, list = false;
 };
 
 // time: the timing sweeps (experiments/lib/timing.hpp) measured with Google Benchmark.
 int runTime(const TimeOptions& o, const std::string& program) {
   TimingSweep sweep = timingSweep(o.mode);
-  if (o.min_time > 0) sweep.min_time = o.min_time;
-  if (o.repetitions > 0) sweep.repetitions = o.repetitions;
+  // Given values are checked, never replaced by the defaults (before the file is created).
+  if (o.min_time_given) {
+    if (!(o.min_time > 0) || !(o.min_time <= kMaxMinTime)) {
+      char buf[128];
+      std::snprintf(buf, sizeof buf, "--min-time must be above 0 and at most %g s, got %g",
+                    kMaxMinTime, o.min_time);
+      throw std::invalid_argument(buf);
+    }
+    sweep.min_time = o.min_time;
+  }
+  if (o.repetitions_given) {
+    checkRange("--repetitions", o.repetitions, 1, kMaxRepetitions);
+    sweep.repetitions = o.repetitions;
+  }
   // --solvers: only these (each must be registered).
   if (!o.solvers.empty()) {
     for (const std::string& name : o.solvers) makeSolver(name);
@@ -516,8 +690,9 @@ int runCli(int argc, char** argv, const std::string& program) {
       ->required();
   gen->add_option("--n", g.n,
                   "Number of jointed links, not counting a floating base (> 0; required "
-                  "except for --topology centipede, which takes --segments)");
-  gen->add_option("--seed", g.seed, "Random seed")->check(kNonNegative)->capture_default_str();
+                  "except for --topology centipede, which takes --segments)")
+      ->check(kInt);
+  gen->add_option("--seed", g.seed, "Random seed")->check(kSeed)->capture_default_str();
   gen->add_flag("--floating-base", g.floating_base,
                 "Add a floating base: a new body 0 on a 6-DOF joint above the n links "
                 "(nv = n + 6 for revolute links)");
@@ -535,17 +710,17 @@ int runCli(int argc, char** argv, const std::string& program) {
   sol->add_option("--solver", s.solver, "Solver name (see `minv solvers`) or all")
       ->capture_default_str();
   CLI::Option* qseed = sol->add_option("--q-seed", s.q_seed, "Seed of the random configuration q")
-                           ->check(kNonNegative)
+                           ->check(kSeed)
                            ->capture_default_str();
   sol->add_option("--q", s.q_file,
                   "Configuration file instead of a random q: nq numbers in q order, or "
                   "'name value' lines (names: minv's q names, see the README)")
       ->excludes(qseed);
   sol->add_option("--rhs", s.rhs, "Also solve M X = R for this many random columns")
-      ->check(kNonNegative)
+      ->check(kRhs)
       ->capture_default_str();
   sol->add_option("--rhs-seed", s.rhs_seed, "Seed of the random right-hand sides")
-      ->check(kNonNegative)
+      ->check(kSeed)
       ->capture_default_str();
   sol->add_option("--out", s.out, "Output HDF5 file")->required();
 
@@ -558,6 +733,7 @@ int runCli(int argc, char** argv, const std::string& program) {
       app.add_subcommand("check", "Run the conformance checks on solvers (exit 1 on a failure)");
   chk->add_option("--solver", ck.solver, "Solver name or all")->capture_default_str();
   chk->add_option("--max-n", ck.max_n, "Largest tree (cases n = 1, 2, 3, 7, 32, 100, 300)")
+      ->check(kInt)
       ->capture_default_str();
 
   // time
@@ -567,8 +743,10 @@ int runCli(int argc, char** argv, const std::string& program) {
   tim->add_option("--solvers", tm.solvers, "Only these solvers")->delimiter(',');
   tim->add_option("--shard", tm.shard, "Run the points i, i+N, i+2N, … of the sweep")
       ->capture_default_str();
-  tim->add_option("--min-time", tm.min_time, "Google Benchmark min time per repetition (s)");
-  tim->add_option("--repetitions", tm.repetitions, "Repetitions per point");
+  CLI::Option* min_time =
+      tim->add_option("--min-time", tm.min_time, "Google Benchmark min time per repetition (s)");
+  CLI::Option* repetitions =
+      tim->add_option("--repetitions", tm.repetitions, "Repetitions per point")->check(kInt);
   tim->add_flag("--list", tm.list, "Print the shard's points and exit");
   tim->add_option("--out", tm.out, "Output HDF5 file (appended to and resumed)");
 
@@ -577,22 +755,24 @@ int runCli(int argc, char** argv, const std::string& program) {
   CLI::App* fl = app.add_subcommand("flops", "Print measured operation counts per stage");
   fl->add_option("--solver", f.solver, "Solver name or all")->capture_default_str();
   fl->add_option("--topology", f.topology, "serial | branched")->required();
-  fl->add_option("--n", f.n, "Number of jointed links (> 0)")->required();
+  fl->add_option("--n", f.n, "Number of jointed links (> 0)")->required()->check(kInt);
   fl->add_flag("--floating-base", f.floating_base,
                "Add a floating base: a new body 0 on a 6-DOF joint above the n links");
   fl->add_option("--joints", f.joints, "revolute | mixed")->capture_default_str();
   fl->add_option("--rhs", f.rhs, "Count M^-1 R with this many columns instead of M^-1")
-      ->check(kNonNegative)
+      ->check(kRhs)
       ->capture_default_str();
-  fl->add_option("--seed", f.seed, "Random seed")->check(kNonNegative)->capture_default_str();
+  fl->add_option("--seed", f.seed, "Random seed")->check(kSeed)->capture_default_str();
 
   // experiment
   CLI::App* exp = app.add_subcommand("experiment", "Run an experiment sweep into results/");
   exp->require_subcommand(1);
   ExperimentOptions x;
   CLI::App* xfl = exp->add_subcommand("flops", "Operation counts vs n (Tables 1-3, Figure 1)");
-  xfl->add_option("--max-n", x.max_n, "Largest n (powers of two from 2)")->capture_default_str();
-  xfl->add_option("--seed", x.seed, "Random seed")->check(kNonNegative)->capture_default_str();
+  xfl->add_option("--max-n", x.max_n, "Largest n (powers of two from 2)")
+      ->check(kInt)
+      ->capture_default_str();
+  xfl->add_option("--seed", x.seed, "Random seed")->check(kSeed)->capture_default_str();
   xfl->add_option("--out", x.out, "Output HDF5 file")->required();
   AccuracyOptions xa;
   CLI::App* xac =
@@ -606,7 +786,8 @@ int runCli(int argc, char** argv, const std::string& program) {
   mrg->add_option("--out", mg.out, "Output HDF5 file")->required();
   mrg->add_option("inputs", mg.inputs, "Shard files")->required();
 
-  gen->add_option("--segments", g.segments, "Centipede: number of body segments (>= 1)");
+  gen->add_option("--segments", g.segments, "Centipede: number of body segments (>= 1)")
+      ->check(kInt);
   gen->add_option("--segment-joint", g.segment_joint, "Centipede: yaw | spherical")
       ->capture_default_str();
 
@@ -615,8 +796,10 @@ int runCli(int argc, char** argv, const std::string& program) {
   CLI::App* simc = app.add_subcommand("simulate", "Contact dynamics: the walking centipede (sim/)");
   simc->require_subcommand(1);
   CLI::App* scen = simc->add_subcommand("centipede", "One walk; prints the net displacement");
-  scen->add_option("--segments", sm.run.segments, "Body segments (>= 1)")->capture_default_str();
-  scen->add_option("--steps", sm.run.steps, "Time steps")->capture_default_str();
+  scen->add_option("--segments", sm.run.segments, "Body segments (>= 1)")
+      ->check(kInt)
+      ->capture_default_str();
+  scen->add_option("--steps", sm.run.steps, "Time steps")->check(kInt)->capture_default_str();
   scen->add_option("--dt", sm.run.dt, "Step size (s)")->capture_default_str();
   scen->add_option("--solver", sm.run.solver,
                    "Contact-space path: a solver name, test-impulse or contact-inertia; or "
@@ -626,21 +809,28 @@ int runCli(int argc, char** argv, const std::string& program) {
       ->capture_default_str();
   scen->add_option("--threads", sm.run.threads,
                    "OpenMP threads of the contact-space matrices (mujoco-step: 1)")
+      ->check(kInt)
       ->capture_default_str();
-  scen->add_option("--frames", sm.run.frames, "Trajectory frames to save")->capture_default_str();
+  scen->add_option("--frames", sm.run.frames, "Trajectory frames to save")
+      ->check(kInt)
+      ->capture_default_str();
   scen->add_option("--out", sm.out, "Output HDF5 file (optional)");
   CLI::App* ssw = simc->add_subcommand("sweep", "Figure 4: time per step vs segments and solver");
   ssw->add_option("--segments", sm.sweep.segments, "Segment counts")
       ->delimiter(',')
+      ->check(kInt)
       ->capture_default_str();
   ssw->add_option("--solvers", sm.sweep.solvers,
                   "Paths: solver names, test-impulse, contact-inertia, mujoco-step")
       ->delimiter(',')
       ->capture_default_str();
-  ssw->add_option("--steps", sm.sweep.steps, "Time steps per run")->capture_default_str();
+  ssw->add_option("--steps", sm.sweep.steps, "Time steps per run")
+      ->check(kInt)
+      ->capture_default_str();
   ssw->add_option("--dt", sm.sweep.dt, "Step size (s)")->capture_default_str();
   ssw->add_option("--threads", sm.sweep.threads,
                   "OpenMP threads of every path; points > 1 are named <path>@<threads>")
+      ->check(kInt)
       ->capture_default_str();
   ssw->add_option("--out", sm.sweep.out, "Output HDF5 file (appended to and resumed)")->required();
 
@@ -652,6 +842,24 @@ int runCli(int argc, char** argv, const std::string& program) {
     return reportError(std::string("unknown subcommand '") + argv[1] +
                        "' (expected generate, solve, solvers, check, time, flops, experiment, "
                        "merge or simulate)");
+  // The same for `experiment` and `simulate`, whose own subcommand is missing or unknown.
+  struct Parent {
+    CLI::App* app;
+    std::vector<CLI::App*> subs;
+    const char* names;
+  };
+  for (const Parent& p : {Parent{exp, {xfl, xac}, "flops or accuracy"},
+                          Parent{simc, {scen, ssw}, "centipede or sweep"}}) {
+    if (argc < 2 || !p.app->check_name(argv[1])) continue;
+    const std::string word = argc > 2 ? argv[2] : "";
+    if (!word.empty() && word[0] == '-') continue;  // --help, or CLI11's own message
+    bool found = false;
+    for (CLI::App* sub : p.subs) found |= !word.empty() && sub->check_name(word);
+    if (word.empty()) return reportError(std::string(argv[1]) + " needs a subcommand: " + p.names);
+    if (!found)
+      return reportError("unknown " + std::string(argv[1]) + " subcommand '" + word +
+                         "' (expected " + p.names + ")");
+  }
   // Parse: --help/--version exit 0 through CLI11; every other parse error is one line, exit 2.
   try {
     app.parse(argc, argv);
@@ -659,7 +867,10 @@ int runCli(int argc, char** argv, const std::string& program) {
     if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) return app.exit(e);
     return reportError(e.what());
   }
-  // Run: any exception is one line, exit 2.
+  // Run: any exception is one line, exit 2; running out of memory says what was allocated.
+  tm.min_time_given = min_time->count() > 0;
+  tm.repetitions_given = repetitions->count() > 0;
+  allocating().clear();
   try {
     if (gen->parsed()) return runGenerate(g);
     if (sol->parsed()) return runSolve(s);
@@ -673,6 +884,9 @@ int runCli(int argc, char** argv, const std::string& program) {
     if (scen->parsed()) return runSimulate(sm);
     if (ssw->parsed()) return runSimulateSweep(sm);
     return reportError("no subcommand given");
+  } catch (const std::bad_alloc&) {
+    return reportError("out of memory" +
+                       (allocating().empty() ? "" : " (allocating " + allocating() + ")"));
   } catch (const std::exception& e) {
     return reportError(e.what());
   } catch (...) {

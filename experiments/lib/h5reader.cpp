@@ -229,6 +229,25 @@ hid_t openReadOnly(const std::string& path) {
 
 int mergeResultFiles(const std::vector<std::string>& inputs, const std::string& out) {
   if (inputs.empty()) throw std::invalid_argument("merge needs at least one input file");
+  // Only timing sweeps (shards or merged files), all before the output is begun: any other
+  // file would merge to 0 points.
+  for (const std::string& in : inputs) {
+    silenceHdf5Errors();
+    Hid file(H5Fopen(in.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+    if (file < 0)
+      throw std::runtime_error("input file '" + in +
+                               "' is not an HDF5 file (merge joins the "
+                               "shard files of `minv time --shard`)");
+    Hid root(H5Gopen2(file, "/", H5P_DEFAULT), H5Gclose);
+    const std::string experiment = H5Aexists(root, "experiment") > 0
+                                       ? readAttribute(root, "experiment", in).text()
+                                       : std::string();
+    if (experiment != "timing")
+      throw std::runtime_error(
+          "input file '" + in + "' is not a timing-sweep shard file (" +
+          (experiment.empty() ? "no experiment attribute" : "experiment '" + experiment + "'") +
+          "; merge joins the shard files of `minv time --shard`)");
+  }
   H5Writer h5(out);
   std::set<std::string> seen;
   std::string from;
