@@ -337,6 +337,13 @@ void Model::checkConfiguration(const Eigen::VectorXd& q) const {
                          std::to_string(o + k) + "] = " + formatNumber(q(o + k)) + " is beyond ±" +
                          formatNumber(kMaxLength) +
                          ", the range in which the world-frame kernels keep M accurate");
+    // Angles: a revolute joint's, within ±kMaxAngle.
+    if (t == JointType::Revolute && std::abs(q(o)) > kMaxAngle)
+      throw ModelError("configuration of " + where(i, joints_[i].name) + ": q[" +
+                       std::to_string(o) + "] = " + formatNumber(q(o)) + " rad is beyond ±" +
+                       formatNumber(kMaxAngle) +
+                       " rad (about 160 000 turns), where an angle keeps too few digits to place "
+                       "its joint: reduce it modulo 2π");
     if (t != JointType::Spherical && t != JointType::Floating) continue;
     // Quaternions: not zero, and small enough that their norm does not overflow.
     const int w = o + (t == JointType::Floating ? 3 : 0);
@@ -344,7 +351,9 @@ void Model::checkConfiguration(const Eigen::VectorXd& q) const {
       throw ModelError("configuration of " + where(i, joints_[i].name) +
                        ": a quaternion entry is beyond ±1e100 (its norm would overflow)");
     if (q.segment<4>(w).norm() < 1e-12)
-      throw ModelError("configuration of " + where(i, joints_[i].name) + ": zero quaternion");
+      throw ModelError("configuration of " + where(i, joints_[i].name) +
+                       ": zero quaternion (norm " + formatNumber(q.segment<4>(w).norm()) +
+                       ", below 1e-12)");
   }
 }
 

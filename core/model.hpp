@@ -46,6 +46,10 @@ inline constexpr double kMaxPhysicalMagnitude = 1e30;
 // root joint (Origin::EachRoot, core/kinematics.hpp), so where a tree stands costs nothing; the
 // limit bounds the lengths within a tree, and the simulator's world-frame kinematics.
 inline constexpr double kMaxLength = 1e4;
+// The largest revolute angle (rad) a configuration may hold, about 160 000 turns: beyond it an
+// angle keeps too few digits below the radian to place its joint (at 1e16 none), and DART's
+// joint transform check aborted the process on angles from 1e160 on.
+inline constexpr double kMaxAngle = 1e6;
 // The smallest ratio of a body's smallest principal moment of inertia (about its centre of
 // mass) to m|c|², its mass times the squared distance of the centre of mass from the joint: a
 // body below it is a point mass to double precision, and M can lose its positive definiteness.
@@ -117,8 +121,8 @@ class Model {
   // The neutral configuration (zero angles, identity quaternions).
   Eigen::VectorXd neutral() const;
   // Throws ModelError if q has the wrong size, a non-finite entry, a zero quaternion or one with
-  // an entry beyond ±1e100 (its norm would overflow), or a floating base position or a
-  // prismatic displacement beyond ±kMaxLength.
+  // an entry beyond ±1e100 (its norm would overflow), a floating base position or a
+  // prismatic displacement beyond ±kMaxLength, or a revolute angle beyond ±kMaxAngle.
   void checkConfiguration(const Eigen::VectorXd& q) const;
 
  private:

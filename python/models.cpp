@@ -177,7 +177,9 @@ body. Deterministic in the seed.)doc");
   m.def(
       "flops",
       [](const std::string& name, const Model& model, const py::object& q_object, int m) {
-        if (m < 0) throw py::value_error("m must be >= 0, got " + std::to_string(m));
+        // (As `minv flops --rhs`: the counted run holds dense nv × m matrices.)
+        if (m < 0 || m > 100000)
+          throw py::value_error("m must be between 0 and 100000, got " + std::to_string(m));
         const Eigen::VectorXd q = realVector(q_object, "q");
         model.checkConfiguration(q);
         py::dict out;

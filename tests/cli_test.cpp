@@ -543,9 +543,10 @@ TEST_F(CliRoundTrip, TinyAndHugeMassesGiveSmallFiniteResiduals) {
       ++solved;
       const long double norms = M.norm() * f.matrix(g + "/Minv").cast<long double>().norm();
       const double ratio = static_cast<double>(std::sqrt(3.0L) / norms);
-      if (f.real(g, "residual_identity") > 0)
+      if (f.real(g, "residual_identity") > 0) {
         EXPECT_NEAR(f.real(g, "residual") / f.real(g, "residual_identity"), ratio, 1e-9 * ratio)
             << name;
+      }
       EXPECT_LT(f.real(g, "residual"), 1e-14) << name;
       EXPECT_LT(f.real(g, "residual_identity"), 1e-12) << name;
       EXPECT_LT(f.real(g, "solve_residual"), 1e-12) << name;
@@ -637,9 +638,9 @@ TEST_F(CliBadInput, MergeRefusesNonTimingFiles) {
   ASSERT_EQ(minv("generate --topology serial --n 3 --out m.json").status, 0);
   ASSERT_EQ(minv("solve --model m.json --solver abi --out solve.h5").status, 0);
   expectFailure("merge --out out.h5 flops.h5",
-                "input file 'flops.h5' is not a timing-sweep shard file (experiment 'flops'");
+                "input file 'flops.h5' is not a timing-sweep file (experiment 'flops'");
   expectFailure("merge --out out.h5 solve.h5",
-                "input file 'solve.h5' is not a timing-sweep shard file (no experiment attribute");
+                "input file 'solve.h5' is not a timing-sweep file (no experiment attribute");
   expectFailure("merge --out out.h5 m.json", "input file 'm.json' is not an HDF5 file");
 }
 
@@ -677,6 +678,11 @@ TEST_F(CliBadInput, SubcommandTopologyAndDirectoryMessages) {
                 "output directory 'file.json' is not a directory", "file.json/t.json");
   expectFailure("solve --model file.json --out file.json/out.h5",
                 "output directory 'file.json' is not a directory", "file.json/out.h5");
+  // An output that names a directory is refused before the work (it failed at the rename).
+  fs::create_directory(dir_ / "sub");
+  expectFailure("generate --topology serial --n 3 --out sub", "output 'sub' is a directory",
+                "sub/x");
+  expectFailure("solve --model file.json --out sub/", "output 'sub/' is a directory", "sub/x");
 }
 
 }  // namespace

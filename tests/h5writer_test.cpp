@@ -326,10 +326,10 @@ TEST(H5Writer, AppendModeSurvivesAKilledProcess) {
   EXPECT_FALSE(w.hasGroup("p1"));
 }
 
-// A create-mode run killed by SIGTERM, SIGINT or SIGHUP (no destructors) leaves no tmp file, and
-// still dies of that signal; a committed result of an earlier writer stays.
+// A create-mode run killed by SIGTERM, SIGINT, SIGHUP or aborted (no destructors) leaves no tmp
+// file, and still dies of that signal; a committed result of an earlier writer stays.
 TEST(H5Writer, KilledCreateModeRunLeavesNoTmpFile) {
-  for (const int sig : {SIGTERM, SIGINT, SIGHUP}) {
+  for (const int sig : {SIGTERM, SIGINT, SIGHUP, SIGABRT}) {
     H5Dir dir;
     const std::string path = dir / "killed.h5", kept = dir / "kept.h5";
     const pid_t pid = fork();

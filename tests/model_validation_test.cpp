@@ -80,6 +80,25 @@ TEST(ModelValidation, DuplicateNamesNameBothPlaces) {
       << g.error();
 }
 
+// A revolute angle beyond ±kMaxAngle is refused (DART aborted the process from 1e160 rad on);
+// one just inside is a configuration.
+TEST(ModelValidation, RevoluteAnglesAreBounded) {
+  Chain c;
+  const Model m = Model::create(c.parent, c.joints, c.bodies);
+  Eigen::VectorXd q = m.neutral();
+  q(1) = kMaxAngle;
+  EXPECT_NO_THROW(m.checkConfiguration(q));
+  q(1) = -1e300;
+  try {
+    m.checkConfiguration(q);
+    ADD_FAILURE() << "no error";
+  } catch (const ModelError& e) {
+    EXPECT_NE(std::string(e.what()).find("q[1] = -1e+300 rad is beyond ±1e+06 rad"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(ModelValidation, NumbersInMessagesKeepTheirValue) {
   Chain c;
   c.bodies[1].mass = -1e-9;

@@ -168,10 +168,13 @@ void checkRange(const std::string& name, long long value, long long lo, long lon
                                 std::to_string(hi) + why + ", got " + std::to_string(value));
 }
 
-// Fail fast, before any work, if the output file's directory does not exist.
+// Fail fast, before any work, if the output file's directory does not exist, or the output
+// names a directory itself (it failed only at the final rename).
 void checkOutputDirectory(const std::string& path) {
-  const std::filesystem::path dir = std::filesystem::path(path).parent_path();
+  const std::filesystem::path out(path), dir = out.parent_path();
   std::error_code ec;
+  if (!out.has_filename() || std::filesystem::is_directory(out, ec))
+    throw std::runtime_error("output '" + path + "' is a directory; name a file");
   if (dir.empty() || std::filesystem::is_directory(dir, ec)) return;
   if (std::filesystem::exists(dir, ec))
     throw std::runtime_error("output directory '" + dir.string() + "' is not a directory");

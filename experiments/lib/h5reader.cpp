@@ -225,6 +225,20 @@ hid_t openReadOnly(const std::string& path) {
   return f;
 }
 
+// std::runtime_error unless `file` is a timing sweep (root attribute experiment = "timing" and
+// a group "points"), naming what it is instead: "<what> is not a timing-sweep file (…<hint>)".
+void requireTimingSweep(hid_t file, const std::string& what, const std::string& hint) {
+  Hid root(H5Gopen2(file, "/", H5P_DEFAULT), H5Gclose);
+  const std::string experiment = H5Aexists(root, "experiment") > 0
+                                     ? readAttribute(root, "experiment", what).text()
+                                     : std::string();
+  if (experiment != "timing" || H5Lexists(file, "points", H5P_DEFAULT) <= 0)
+    throw std::runtime_error(
+        what + " is not a timing-sweep file (" +
+        (experiment.empty() ? "no experiment attribute" : "experiment '" + experiment + "'") +
+        (experiment == "timing" ? ", no points group" : "") + hint + ")");
+}
+
 }  // namespace
 
 int mergeResultFiles(const std::vector<std::string>& inputs, const std::string& out) {
@@ -238,15 +252,8 @@ int mergeResultFiles(const std::vector<std::string>& inputs, const std::string& 
       throw std::runtime_error("input file '" + in +
                                "' is not an HDF5 file (merge joins the "
                                "shard files of `minv time --shard`)");
-    Hid root(H5Gopen2(file, "/", H5P_DEFAULT), H5Gclose);
-    const std::string experiment = H5Aexists(root, "experiment") > 0
-                                       ? readAttribute(root, "experiment", in).text()
-                                       : std::string();
-    if (experiment != "timing")
-      throw std::runtime_error(
-          "input file '" + in + "' is not a timing-sweep shard file (" +
-          (experiment.empty() ? "no experiment attribute" : "experiment '" + experiment + "'") +
-          "; merge joins the shard files of `minv time --shard`)");
+    requireTimingSweep(file, "input file '" + in + "'",
+                       "; merge joins the shard files of `minv time --shard`");
   }
   H5Writer h5(out);
   std::set<std::string> seen;
@@ -280,7 +287,7 @@ int mergeResultFiles(const std::vector<std::string>& inputs, const std::string& 
 std::map<std::string, PointRecord> readPoints(const std::string& path) {
   std::map<std::string, PointRecord> out;
   Hid file(openReadOnly(path), H5Fclose);
-  if (H5Lexists(file, "points", H5P_DEFAULT) <= 0) return out;
+  requireTimingSweep(file, "'" + path + "'", "");
   Hid points(H5Gopen2(file, "points", H5P_DEFAULT), H5Gclose);
   for (const std::string& name : childNames(points)) {
     if (endsWith(name, ".partial")) continue;

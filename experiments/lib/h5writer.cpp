@@ -25,7 +25,7 @@ struct TmpSlot {
 TmpSlot tmpSlots[kTmpSlots];
 std::mutex tmpMutex;
 
-// SIGINT, SIGTERM, SIGHUP: remove the live tmp files, then die of the signal as before.
+// SIGINT, SIGTERM, SIGHUP, SIGABRT: remove the live tmp files, then die of the signal as before.
 extern "C" void removeTmpFilesAndDie(int sig) {
   for (TmpSlot& slot : tmpSlots)
     if (slot.used.load(std::memory_order_acquire)) unlink(slot.path);
@@ -38,7 +38,7 @@ extern "C" void removeTmpFilesAndDie(int sig) {
 void installTmpCleanup() {
   static std::once_flag once;
   std::call_once(once, [] {
-    for (const int sig : {SIGINT, SIGTERM, SIGHUP}) {
+    for (const int sig : {SIGINT, SIGTERM, SIGHUP, SIGABRT}) {
       struct sigaction old {};
       if (sigaction(sig, nullptr, &old) != 0 || (old.sa_flags & SA_SIGINFO) ||
           old.sa_handler != SIG_DFL)

@@ -4,9 +4,10 @@
 //   * H5Writer(path) writes to `path + ".tmp"`; commit() closes it and renames it to `path`.
 //     Destroying a writer that was not committed deletes the tmp file, so a failed run never
 //     leaves a (half-written) result file at `path`; nor does a run killed by SIGINT, SIGTERM
-//     or SIGHUP, where no destructor runs: the first writer installs a handler for each of
-//     those signals that still has the default action, which removes the tmp files of the
-//     writers alive and then dies of the signal as before (Python keeps its own SIGINT).
+//     or SIGHUP, or aborted (a peer library's failed assertion), where no destructor runs: the
+//     first writer installs a handler for each of those signals that still has the default
+//     action, which removes the tmp files of the writers alive and then dies of the signal as
+//     before (Python keeps its own SIGINT).
 //   * H5Writer::append(path) opens `path` read-write, or creates it, and writes in place, for
 //     sweeps that write each point when it finishes and resume after a kill: write a point
 //     between beginPoint(name) and endPoint(name). Its data go to a staging group

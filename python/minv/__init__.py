@@ -226,6 +226,10 @@ class Comparison:
         return plot_comparison(self.path, out=out)
 
 
+# The largest n compare() takes (as `minv flops --n`): each point holds dense n × n matrices.
+_MAX_COMPARE_N = 16384
+
+
 def compare(solver, sizes=(8, 16, 32, 64), topologies=("serial", "branched"),
             against=("abi", "lapack"), out="results/compare.h5", name=None, repetitions=5,
             min_time=0.01, *, summary=None, resume=False, mode="quick", verbose=False):
@@ -262,14 +266,20 @@ def compare(solver, sizes=(8, 16, 32, 64), topologies=("serial", "branched"),
     sizes, topologies, against = list(sizes), list(topologies), list(against)
     # Arguments the sweep would refuse, refused before anything is created.
     if not sizes or any(isinstance(n, bool) or not isinstance(n, numbers.Integral) or n < 1
-                        for n in sizes):
-        raise ValueError(f"sizes must be positive integers, got {sizes!r}")
+                        or n > _MAX_COMPARE_N for n in sizes):
+        raise ValueError(f"sizes must be positive integers up to {_MAX_COMPARE_N} (each point "
+                         f"holds dense n × n matrices), got {sizes!r}")
     if int(repetitions) < 1 or not (math.isfinite(float(min_time)) and float(min_time) > 0):
         raise ValueError(f"repetitions must be at least 1 and min_time a positive number of "
                          f"seconds, got {repetitions!r} and {min_time!r}")
     path = os.fspath(out)
-    if os.path.isdir(path):
-        raise IsADirectoryError(f"out must be a file, and {path!r} is a directory")
+    if not os.path.basename(path) or os.path.isdir(path):
+        raise IsADirectoryError(f"out must name a file, and {path!r} is a directory")
+    parent = os.path.dirname(os.path.abspath(path))
+    while not os.path.exists(parent):
+        parent = os.path.dirname(parent)
+    if not os.path.isdir(parent):
+        raise NotADirectoryError(f"out {path!r}: {parent!r} is a file, not a directory")
     # The folders this call creates, removed again (if still empty) when it fails.
     folder = os.path.dirname(os.path.abspath(path))
     created = []

@@ -162,6 +162,27 @@ def test_bad_right_hand_sides():
         solver.solve(np.full(4, 1e308))
 
 
+def test_files_and_sizes_that_are_not_what_they_should_be(tmp_path):
+    import h5py
+    other = tmp_path / "other.h5"
+    with h5py.File(other, "w") as f:
+        f.attrs["experiment"] = "flops"
+    with pytest.raises(RuntimeError, match="is not a timing-sweep file \\(experiment 'flops'"):
+        minv.read_points(str(other))  # it returned {} as if the sweep were empty
+    model = minv.random_tree("serial", 4)
+    with pytest.raises(ValueError, match="m must be between 0 and 100000, got 1000000000"):
+        minv.flops("abi", model, model.neutral(), 10**9)
+    q = model.neutral()
+    q[0] = 1e300  # a revolute angle: DART aborted the interpreter on it
+    with pytest.raises(minv.ModelError, match="rad is beyond"):
+        minv.mass_matrix(model, q)
+    for name in minv.solver_names():
+        s = minv.make_solver(name)
+        s.prepare(model)
+        with pytest.raises(minv.ModelError, match="rad is beyond"):
+            s.configure(q)
+
+
 def test_complex_configurations_and_thread_counts():
     model = minv.random_tree("serial", 4)
     solver = minv.make_solver("abi")

@@ -189,6 +189,15 @@ def test_compare_unregisters_on_error(tmp_path):
         with pytest.raises(ValueError, match="sizes must be positive integers"):
             minv.compare(ScipyCholesky, sizes=bad, out=tmp_path / "new" / "deeper" / "c.h5")
     assert not os.path.exists(tmp_path / "new")
+    with pytest.raises(ValueError, match="up to 16384"):
+        minv.compare(ScipyCholesky, sizes=(10**7,), out=out)  # once grew to 24 GB
+    with pytest.raises(IsADirectoryError, match="must name a file"):
+        minv.compare(ScipyCholesky, out="")
+    with pytest.raises(IsADirectoryError, match="must name a file"):
+        minv.compare(ScipyCholesky, out=str(tmp_path / "sub") + "/")
+    (tmp_path / "plain").write_text("x")
+    with pytest.raises(NotADirectoryError, match="is a file, not a directory"):
+        minv.compare(ScipyCholesky, out=tmp_path / "plain" / "c.h5")
     with pytest.raises(ValueError, match="min_time"):
         minv.compare(ScipyCholesky, min_time=float("inf"), out=out)
     with pytest.raises(IsADirectoryError, match="is a directory"):
