@@ -14,9 +14,10 @@
 //     1e-12 and positive definite (Eigen's LLT succeeds).
 // Configurations (checkConfigurationInput, on the fixed model configurationModel()): for any
 // text readConfiguration returns a q that passes checkConfiguration or throws ModelError; for
-// any vector checkConfiguration throws ModelError exactly when q has the wrong size, a
-// non-finite entry or a zero quaternion; an accepted q gives an M that is finite, symmetric and
-// SPD, and equal (relative 1e-9) to M at q with its quaternions normalised beforehand.
+// any vector checkConfiguration throws ModelError exactly when q breaks its spec
+// (validConfiguration below: size, finite entries, ranges, no zero quaternion); an accepted q
+// gives an M that is finite, symmetric and SPD, and equal (relative 1e-9) to M at q with its
+// quaternions normalised beforehand.
 // A different exception type or a failed check is a violation; a crash, hang, leak or
 // sanitizer report is the sanitizers' and libFuzzer's to catch. Inputs over kMaxInputBytes are
 // skipped (contract holds vacuously), and so are MJCF inputs with a <size> element (see
@@ -279,8 +280,8 @@ inline const Model& configurationModel() {
 }
 
 // The spec of checkConfiguration (core/model.hpp): right size, finite entries; a floating base's
-// position and a prismatic displacement within ±kMaxLength; quaternion entries within ±1e100 and
-// no zero quaternion (norm < 1e-12).
+// position and a prismatic displacement within ±kMaxLength; a revolute angle within ±kMaxAngle;
+// quaternion entries within ±1e100 and no zero quaternion (norm < 1e-12).
 inline bool validConfiguration(const Model& m, const Eigen::VectorXd& q) {
   if (q.size() != m.nq() || !q.allFinite()) return false;
   for (int i = 0; i < m.nb(); ++i) {
@@ -289,6 +290,7 @@ inline bool validConfiguration(const Model& m, const Eigen::VectorXd& q) {
     const int lengths = t == JointType::Floating ? 3 : t == JointType::Prismatic ? 1 : 0;
     for (int k = 0; k < lengths; ++k)
       if (std::abs(q(o + k)) > kMaxLength) return false;
+    if (t == JointType::Revolute && std::abs(q(o)) > kMaxAngle) return false;
     if (t != JointType::Spherical && t != JointType::Floating) continue;
     const auto quat = q.segment<4>(o + (t == JointType::Floating ? 3 : 0));
     if (quat.cwiseAbs().maxCoeff() > 1e100 || quat.norm() < 1e-12) return false;
