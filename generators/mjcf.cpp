@@ -9,6 +9,8 @@
 #include <mutex>
 #include <stdexcept>
 #include <string_view>
+#include <utility>
+#include <vector>
 
 #include "core/spatial.hpp"
 
@@ -179,9 +181,33 @@ void throwingError(const char* msg) {
   if (loading_xml && std::string_view(msg) == "Empty filename in VFS") return;
   throw std::runtime_error(std::string("mujoco: ") + msg);
 }
+// MuJoCo's warnings, printed, or held while a HeldWarnings lives on this thread.
+thread_local std::vector<std::string>* held_warnings = nullptr;
 void printingWarning(const char* msg) {
+  if (held_warnings) {
+    held_warnings->push_back(msg);
+    return;
+  }
   std::cerr << "mujoco warning: " << msg << "\n";
 }
+// Holds MuJoCo's warnings while a user's file is read; print() shows them once the model is
+// accepted. A file refused (by MuJoCo or minv) gets only its one error line, which names the
+// problem ("XML contains a 'NaN'" beside "joint axis is not finite" was a second line).
+class HeldWarnings {
+ public:
+  HeldWarnings() : outer_(std::exchange(held_warnings, &list_)) {}
+  ~HeldWarnings() { held_warnings = outer_; }
+  HeldWarnings(const HeldWarnings&) = delete;
+  HeldWarnings& operator=(const HeldWarnings&) = delete;
+  void print() {
+    held_warnings = outer_;
+    for (const std::string& w : list_) printingWarning(w.c_str());
+  }
+
+ private:
+  std::vector<std::string> list_;
+  std::vector<std::string>* outer_;
+};
 
 // MuJoCo's parse or compile error, with the nesting limit explained.
 [[noreturn]] void loadFailed(const std::string& source, const char* error) {
@@ -462,8 +488,11 @@ Model modelFromMujoco(const mjModel* m, bool floating_base, const std::string& s
 }
 
 Model loadMjcf(const std::string& path, bool floating_base) {
+  HeldWarnings warnings;
   const MjModelPtr m = compileMujocoFile(path);
-  return asModelError(path, [&] { return modelFromMujoco(m.get(), floating_base, path); });
+  Model model = asModelError(path, [&] { return modelFromMujoco(m.get(), floating_base, path); });
+  warnings.print();
+  return model;
 }
 
 #endif

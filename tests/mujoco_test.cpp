@@ -286,6 +286,14 @@ TEST(Mujoco, MjcfFloatingBaseAndErrors) {
   const TempFile file3("minv_mujoco_test_deep.xml", deep);
   EXPECT_ERROR(loadMjcf(file3.path, false), "at most 96 nested bodies");
   EXPECT_THROW(loadMjcf(::testing::TempDir() + "/no_such_file.xml", false), ModelError);
+
+  // MuJoCo's warning about a NaN is held back: a refused file says only what minv says.
+  const TempFile file4("minv_mujoco_test_nan.xml", R"(<mujoco><worldbody><body name="a">
+      <inertial pos="0 0 0" mass="1" diaginertia="0.1 0.1 0.1"/>
+      <joint name="j" type="hinge" axis="nan 0 1"/></body></worldbody></mujoco>)");
+  ::testing::internal::CaptureStderr();
+  EXPECT_ERROR(loadMjcf(file4.path, false), "joint axis is not finite");
+  EXPECT_EQ(::testing::internal::GetCapturedStderr(), "");
 }
 
 TEST(Mujoco, SupportsRefusesWhatMujocoRefuses) {
