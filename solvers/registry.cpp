@@ -121,9 +121,9 @@ std::string solverNameProblem(const std::string& name) {
       return quoted + " has the character '" + escaped(std::string(1, c)) +
              "'; use ASCII letters, digits, '_' and '-'";
   if (!std::isalnum(static_cast<unsigned char>(name[0])))
-    return "solver name '" + name + "' must start with a letter or a digit";
+    return quoted + " must start with a letter or a digit";
   if (name == "all" || name == "test-impulse" || name == "contact-inertia" || name == "mujoco-step")
-    return "solver name '" + name + "' is reserved by the minv command";
+    return quoted + " is reserved by the minv command";
   return {};
 }
 

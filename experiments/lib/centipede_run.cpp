@@ -121,6 +121,17 @@ void checkPathThreads(const std::string& path, int threads) {
     throw std::invalid_argument("path mujoco-step runs MuJoCo 2.2's mj_step, which has one thread");
 }
 
+// --steps at least 1, --dt finite and positive (an infinite step only diverges).
+void checkStepping(int steps, double dt) {
+  if (steps < 1)
+    throw std::invalid_argument("--steps must be at least 1, got " + std::to_string(steps));
+  if (!(dt > 0) || !std::isfinite(dt)) {
+    char buf[80];
+    std::snprintf(buf, sizeof buf, "--dt must be a finite positive step (s), got %g", dt);
+    throw std::invalid_argument(buf);
+  }
+}
+
 std::string fmt(const char* f, double a, double b = 0, double c = 0, double d = 0) {
   char buf[256];
   std::snprintf(buf, sizeof buf, f, a, b, c, d);
@@ -158,6 +169,8 @@ class CentipedeRun {
 // The centipede of the options (bad ones throw before anything is built).
 Centipede checkedCentipede(const CentipedeRunOptions& o) {
   checkStepping(o.steps, o.dt);
+  if (o.frames < 0)
+    throw std::invalid_argument("--frames must be at least 0, got " + std::to_string(o.frames));
   const bool mujoco = o.solver == kMujocoStepPath;
   if (mujoco && !haveMujocoStep())
     throw std::invalid_argument("path mujoco-step needs MuJoCo, and this build has none");
@@ -466,16 +479,6 @@ void runCentipedeSweep(const CentipedeSweepOptions& o, std::ostream& log) {
     }
   }
   log << "wrote " << o.out << "\n";
-}
-
-void checkStepping(int steps, double dt) {
-  if (steps < 1)
-    throw std::invalid_argument("--steps must be at least 1, got " + std::to_string(steps));
-  if (!(dt > 0) || !std::isfinite(dt)) {
-    char buf[80];
-    std::snprintf(buf, sizeof buf, "--dt must be a finite positive step (s), got %g", dt);
-    throw std::invalid_argument(buf);
-  }
 }
 
 }  // namespace minv::sim

@@ -73,10 +73,6 @@ struct CentipedeSweepOptions {
   std::string out;
 };
 
-// --steps at least 1 and --dt finite and positive (an infinite step only diverges), else
-// std::invalid_argument naming the value; runCentipede and runCentipedeSweep check them first.
-void checkStepping(int steps, double dt);
-
 // A sweep point's path name: the solver, with "@<threads>" when it ran on more than one.
 std::string sweepPointPath(const std::string& solver, int threads);
 

@@ -230,8 +230,6 @@ int runGenerate(const GenerateOptions& o) {
     throw std::invalid_argument("unknown topology '" + o.topology +
                                 "' (expected serial, branched or centipede)");
   if (o.topology == "centipede") {
-    if (o.segments < 1)
-      throw std::invalid_argument("--segments must be at least 1 for a centipede");
     checkRange("--segments", o.segments, 1, kMaxSegments);
     allocating() = "a centipede of " + std::to_string(o.segments) + " segments";
     CentipedeOptions co;
@@ -489,7 +487,6 @@ struct ExperimentOptions {
 // experiment flops: the operation-count sweep behind Tables 1-3 and Figure 1.
 int runFlopsExperiment(const ExperimentOptions& o) {
   checkOutputDirectory(o.out);
-  if (o.max_n < 2) throw std::invalid_argument("--max-n must be at least 2");
   checkRange("--max-n", o.max_n, 2, kMaxCountedLinks,
              " for experiment flops (its counted matrices are dense)");
   allocating() = "the counted runs up to n = " + std::to_string(o.max_n);
@@ -535,19 +532,11 @@ struct SimulateOptions {
   sim::CentipedeSweepOptions sweep;
 };
 
-// --steps, --dt and --threads of a walk or a sweep, before any file is created.
-void checkStepping(int steps, double dt, int threads) {
-  sim::checkStepping(steps, dt);
-  checkThreads(threads, "--threads");  // 1 … kMaxThreads (solvers/solver.hpp)
-}
-
 // simulate centipede: one walk, progress on stdout, the net displacement, optionally HDF5.
 int runSimulate(SimulateOptions o) {
   if (!o.out.empty()) checkOutputDirectory(o.out);
+  // (The walk's other options are checked by sim::runCentipede before it steps.)
   checkRange("--segments", o.run.segments, 1, kMaxSegments);
-  checkStepping(o.run.steps, o.run.dt, o.run.threads);
-  if (o.run.frames < 0)
-    throw std::invalid_argument("--frames must be at least 0, got " + std::to_string(o.run.frames));
   allocating() = "a walk of a centipede of " + std::to_string(o.run.segments) + " segments, " +
                  std::to_string(o.run.steps) + " steps";
   std::unique_ptr<H5Writer> h5;
@@ -578,8 +567,8 @@ int runSimulate(SimulateOptions o) {
 // simulate sweep: the Figure 4 timings, one point per (segments, solver).
 int runSimulateSweep(const SimulateOptions& o) {
   checkOutputDirectory(o.sweep.out);
+  // (Steps, dt and threads are checked by runCentipedeSweep before it creates the file.)
   for (const int S : o.sweep.segments) checkRange("--segments", S, 1, kMaxSegments);
-  checkStepping(o.sweep.steps, o.sweep.dt, o.sweep.threads);
   sim::runCentipedeSweep(o.sweep, std::cout);
   return 0;
 }

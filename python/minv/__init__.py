@@ -275,17 +275,15 @@ def compare(solver, sizes=(8, 16, 32, 64), topologies=("serial", "branched"),
     path = os.fspath(out)
     if not os.path.basename(path) or os.path.isdir(path):
         raise IsADirectoryError(f"out must name a file, and {path!r} is a directory")
-    parent = os.path.dirname(os.path.abspath(path))
-    while not os.path.exists(parent):
-        parent = os.path.dirname(parent)
-    if not os.path.isdir(parent):
-        raise NotADirectoryError(f"out {path!r}: {parent!r} is a file, not a directory")
-    # The folders this call creates, removed again (if still empty) when it fails.
+    # The folders this call creates (deepest first), removed again if still empty when it fails;
+    # the nearest existing one must be a folder.
     folder = os.path.dirname(os.path.abspath(path))
     created = []
-    while not os.path.exists(folder) and folder != os.path.dirname(folder):
+    while not os.path.exists(folder):
         created.append(folder)
         folder = os.path.dirname(folder)
+    if not os.path.isdir(folder):
+        raise NotADirectoryError(f"out {path!r}: {folder!r} is a file, not a directory")
     os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
     work = path if resume else path + ".compare-tmp"
     if work != path and os.path.exists(work):
