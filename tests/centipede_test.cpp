@@ -141,5 +141,43 @@ TEST(CentipedeCli, TwoThreadsWalkTheSame) {
   std::filesystem::remove(path);
 }
 
+// A sweep resumes into its file only where the points already there walked as this run's
+// would: a point of other steps is refused (it was kept and counted as done), a new point of
+// other steps is added (scripts/reproduce adds S = 250 with fewer steps), and a file of
+// another experiment is refused.
+TEST(CentipedeCli, SweepResumesOnlyItsOwnSettings) {
+  const auto dir = std::filesystem::temp_directory_path();
+  const std::string path = (dir / "minv_sweep_resume.h5").string();
+  const std::string timing = (dir / "minv_sweep_resume_timing.h5").string();
+  std::filesystem::remove(path);
+  std::filesystem::remove(timing);
+  int status = 0;
+  std::string out =
+      run("simulate sweep --segments 2 --steps 3 --solvers abi --out " + path, &status);
+  ASSERT_EQ(status, 0) << out;
+  out = run("simulate sweep --segments 2 --steps 4 --solvers abi --out " + path, &status);
+  EXPECT_EQ(status, 2) << out;
+  EXPECT_NE(out.find("holds point S2/abi made with steps '3' (this run: '4')"), std::string::npos)
+      << out;
+  out = run("simulate sweep --segments 3 --steps 4 --solvers abi --out " + path, &status);
+  EXPECT_EQ(status, 0) << out;
+  out = run("simulate sweep --segments 2,3 --steps 3 --solvers abi --out " + path, &status);
+  EXPECT_EQ(status, 2) << out;
+  EXPECT_NE(out.find("holds point S3/abi made with steps '4' (this run: '3')"), std::string::npos)
+      << out;
+  out = run("time --mode tiny --solvers lapack --min-time 0.001 --repetitions 1 --out " + timing,
+            &status);
+  ASSERT_EQ(status, 0) << out;
+  out = run("simulate sweep --segments 2 --steps 3 --solvers abi --out " + timing, &status);
+  EXPECT_EQ(status, 2) << out;
+  EXPECT_NE(out.find("holds experiment 'timing', not 'centipede'"), std::string::npos) << out;
+  out = run("time --mode tiny --solvers lapack --min-time 0.001 --repetitions 1 --out " + path,
+            &status);
+  EXPECT_EQ(status, 2) << out;
+  EXPECT_NE(out.find("holds experiment 'centipede', not 'timing'"), std::string::npos) << out;
+  std::filesystem::remove(path);
+  std::filesystem::remove(timing);
+}
+
 }  // namespace
 }  // namespace minv

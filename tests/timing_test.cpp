@@ -180,7 +180,17 @@ TEST(Timing, KilledSweepResumesWithoutLosingPoints) {
   ASSERT_GE(before.size(), 2u);
   ASSERT_LT(before.size(), total) << "nothing left to resume";
 
-  ASSERT_EQ(shell(benchBinary().string() + " --mode tiny --min-time 0.002 --out " + out.string() +
+  // Other settings would mix points measured two ways: refused, the file untouched.
+  const std::string other = (dir / "other.log").string();
+  EXPECT_EQ(shell(benchBinary().string() + " --mode tiny --min-time 0.002 --out " + out.string() +
+                  " > " + other + " 2>&1"),
+            2)
+      << slurp(other);
+  EXPECT_NE(slurp(other).find("holds points made with min_time_s '0.05' (this run: '0.002')"),
+            std::string::npos)
+      << slurp(other);
+  EXPECT_EQ(readPoints(out.string()).size(), before.size());
+  ASSERT_EQ(shell(benchBinary().string() + " --mode tiny --min-time 0.05 --out " + out.string() +
                   " > " + (dir / "second.log").string() + " 2>&1"),
             0)
       << slurp(dir / "second.log");
@@ -232,6 +242,18 @@ TEST(Timing, MergedShardsEqualOneProcess) {
             2);
   EXPECT_FALSE(fs::exists(dir / "dup.h5"));
   EXPECT_FALSE(fs::exists(dir / "dup.h5.tmp"));
+  // Shards measured with other settings are not one sweep.
+  ASSERT_EQ(shell(benchBinary().string() + " --mode tiny --min-time 0.002 --shard 1/2 --out " +
+                  (dir / "s1b.h5").string() + " > /dev/null"),
+            0);
+  const std::string mixed = (dir / "mixed.log").string();
+  EXPECT_EQ(shell(std::string(MINV_CLI) + " merge --out " + (dir / "mix.h5").string() + " " +
+                  (dir / "s0.h5").string() + " " + (dir / "s1b.h5").string() + " 2> " + mixed),
+            2);
+  EXPECT_NE(slurp(mixed).find("was measured with min_time_s '0.002' (not '0.001')"),
+            std::string::npos)
+      << slurp(mixed);
+  EXPECT_FALSE(fs::exists(dir / "mix.h5"));
   EXPECT_EQ(shell(std::string(MINV_CLI) + " merge --out " + (dir / "x.h5").string() +
                   " /nonexistent.h5 2> /dev/null"),
             2);

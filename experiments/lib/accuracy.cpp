@@ -14,6 +14,7 @@
 #include "core/crba.hpp"
 #include "core/kinematics.hpp"
 #include "experiments/lib/budget.hpp"
+#include "experiments/lib/h5reader.hpp"
 #include "experiments/lib/h5writer.hpp"
 #include "experiments/lib/provenance.hpp"
 #include "generators/random_tree.hpp"
@@ -84,6 +85,9 @@ Reference reference(const Model& model, const Eigen::VectorXd& q) {
 void runAccuracySweep(const AccuracySweep& sweep, const std::string& path, std::ostream& log) {
   openblas_set_num_threads(1);
   omp_set_num_threads(1);
+  // Resumed points must have been made from the same trees as this run's.
+  requireSameSettings(path, "output file",
+                      {{"experiment", "accuracy"}, {"mode", sweep.mode}, {"seed", sweep.seed}});
   H5Writer h5 = H5Writer::append(path);
   h5.setAttribute("/", "experiment", "accuracy");
   h5.setAttribute("/", "mode", sweep.mode);

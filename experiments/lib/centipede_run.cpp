@@ -8,6 +8,7 @@
 #include <ostream>
 #include <stdexcept>
 
+#include "experiments/lib/h5reader.hpp"
 #include "experiments/lib/provenance.hpp"
 #include "generators/centipede.hpp"
 #include "sim/gait.hpp"
@@ -387,7 +388,16 @@ void runCentipedeSweep(const CentipedeSweepOptions& o, std::ostream& log) {
   for (int s : o.segments)
     if (s < 1) throw std::invalid_argument("--segments values must be at least 1");
   checkStepping(o.steps, o.dt);  // before the file: a refused sweep leaves none
+  // A point already there must have walked as this run's will. Steps and dt are each point's
+  // (scripts/reproduce adds S = 250 with fewer steps to the file of S = 5 … 40).
+  std::vector<std::string> points;
+  for (int S : o.segments)
+    for (const std::string& solver : o.solvers)
+      points.push_back("S" + std::to_string(S) + "/" + sweepPointPath(solver, o.threads));
+  requireSameSettings(o.out, "--out", {{"experiment", "centipede"}, {"rounds", kRounds}});
+  requireSameSettings(o.out, "--out", {{"steps", o.steps}, {"dt", o.dt}}, points);
   H5Writer h5 = H5Writer::append(o.out);
+  h5.setAttribute("/", "experiment", "centipede");
   writeProvenance(h5, "/");
   h5.setAttribute("/", "steps", o.steps);
   h5.setAttribute("/", "dt", o.dt);

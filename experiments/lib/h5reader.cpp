@@ -6,6 +6,10 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <iterator>
 #include <set>
 #include <stdexcept>
 
@@ -48,6 +52,16 @@ std::vector<std::string> attributeNames(hid_t obj) {
   return names;
 }
 
+// The shortest decimal text that reads back as x (0.05, not 0.050000000000000003).
+std::string shortestText(double x) {
+  char buf[40];
+  for (int digits = 1; digits <= 17; ++digits) {
+    std::snprintf(buf, sizeof buf, "%.*g", digits, x);
+    if (std::strtod(buf, nullptr) == x) break;
+  }
+  return buf;
+}
+
 // A scalar attribute's value: double, int64, uint64 or string.
 struct AttrValue {
   enum Kind { Double, Int, UInt, String } kind = String;
@@ -57,11 +71,8 @@ struct AttrValue {
   std::string s;
   std::string text() const {
     switch (kind) {
-      case Double: {
-        char buf[40];
-        std::snprintf(buf, sizeof buf, "%.17g", d);
-        return buf;
-      }
+      case Double:
+        return shortestText(d);
       case Int:
         return std::to_string(i);
       case UInt:
@@ -241,10 +252,55 @@ void requireTimingSweep(hid_t file, const std::string& what, const std::string& 
 
 }  // namespace
 
+SweepSetting::SweepSetting(std::string n, double v) : name(std::move(n)), text(shortestText(v)) {}
+
+void requireSameSettings(const std::string& path, const std::string& option,
+                         const std::vector<SweepSetting>& settings,
+                         const std::vector<std::string>& objects) {
+  silenceHdf5Errors();
+  // A new file, or not HDF5 (H5Writer::append says so)
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec) || H5Fis_hdf5(path.c_str()) <= 0) return;
+  Hid file(openReadOnly(path), H5Fclose);
+  for (const std::string& object : objects) {
+    // The object, if the file has it (each link on its path checked in turn).
+    bool present = true;
+    for (std::size_t end = object.find('/', 1); present; end = object.find('/', end + 1)) {
+      const std::string prefix = object.substr(0, end);
+      present = prefix == "/" || H5Lexists(file, prefix.c_str(), H5P_DEFAULT) > 0;
+      if (end == std::string::npos) break;
+    }
+    if (!present) continue;
+    Hid obj(H5Oopen(file, object.c_str(), H5P_DEFAULT), H5Oclose);
+    if (obj < 0) readFail("open " + object, path);
+    std::string differ;
+    for (const SweepSetting& s : settings) {
+      if (H5Aexists(obj, s.name.c_str()) <= 0) continue;
+      const std::string held = readAttribute(obj, s.name, path).text();
+      if (held != s.text && s.name == "experiment")
+        throw std::invalid_argument(option + " '" + path + "' holds experiment '" + held +
+                                    "', not '" + s.text +
+                                    "': write to another file, or remove this one");
+      if (held != s.text)
+        differ +=
+            (differ.empty() ? "" : ", ") + s.name + " '" + held + "' (this run: '" + s.text + "')";
+    }
+    if (!differ.empty())
+      throw std::invalid_argument(
+          option + " '" + path + "' holds " +
+          (object == "/" ? std::string("points") : "point " + object) + " made with " + differ +
+          "; a sweep resumes only with the settings it began with: write to another file, or "
+          "remove this one");
+  }
+}
+
 int mergeResultFiles(const std::vector<std::string>& inputs, const std::string& out) {
   if (inputs.empty()) throw std::invalid_argument("merge needs at least one input file");
   // Only timing sweeps (shards or merged files), all before the output is begun: any other
-  // file would merge to 0 points.
+  // file would merge to 0 points. Their points must have been measured alike: the settings
+  // of a sweep (the root's, which the merged file keeps from the first input) must agree.
+  const char* const kSettings[] = {"mode", "seed", "min_time_s", "repetitions"};
+  std::vector<std::string> first;
   for (const std::string& in : inputs) {
     silenceHdf5Errors();
     Hid file(H5Fopen(in.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
@@ -254,6 +310,22 @@ int mergeResultFiles(const std::vector<std::string>& inputs, const std::string& 
                                "shard files of `minv time --shard`)");
     requireTimingSweep(file, "input file '" + in + "'",
                        "; merge joins the shard files of `minv time --shard`");
+    Hid root(H5Gopen2(file, "/", H5P_DEFAULT), H5Gclose);
+    std::string differ;
+    for (std::size_t k = 0; k < std::size(kSettings); ++k) {
+      const char* name = kSettings[k];
+      const std::string value =
+          H5Aexists(root, name) > 0 ? readAttribute(root, name, in).text() : "(none)";
+      if (first.size() < std::size(kSettings))
+        first.push_back(value);
+      else if (value != first[k])
+        differ += (differ.empty() ? "" : ", ") + std::string(name) + " '" + value + "' (not '" +
+                  first[k] + "')";
+    }
+    if (!differ.empty())
+      throw std::invalid_argument("input file '" + in + "' was measured with " + differ +
+                                  " of input file '" + inputs[0] +
+                                  "': merge joins shards of one sweep");
   }
   H5Writer h5(out);
   std::set<std::string> seen;

@@ -12,6 +12,7 @@
 #include <thread>
 
 #include "experiments/lib/cores.hpp"
+#include "experiments/lib/h5reader.hpp"
 #include "experiments/lib/h5writer.hpp"
 #include "experiments/lib/output_matrix.hpp"
 #include "experiments/lib/provenance.hpp"
@@ -134,6 +135,13 @@ void writePointAttributes(H5Writer& h5, const std::string& g, const TimingPoint&
 
 SweepStats runTimingSweep(const TimingSweep& sweep, Shard shard, const std::string& path,
                           const MeasureFn& measure, std::ostream& log) {
+  // Resumed points must have been measured as this run would measure them.
+  requireSameSettings(path, "output file",
+                      {{"experiment", "timing"},
+                       {"mode", sweep.mode},
+                       {"seed", sweep.seed},
+                       {"min_time_s", sweep.min_time},
+                       {"repetitions", sweep.repetitions}});
   // Each core's speed, measured by every sweep (before OpenMP is held to one thread, so that
   // its workers start on every core); one-thread points run on the fastest core, points on
   // several threads on every core (experiments/lib/cores.hpp: a VM's cores need not be equal,

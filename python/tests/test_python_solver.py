@@ -226,6 +226,11 @@ def test_compare_resume_keeps_points(tmp_path):
     assert again.stats == {"measured": 2, "skipped": 0, "resumed": 2}
     fresh = minv.compare(ScipyCholesky, sizes=(6,), **kw)
     assert fresh.stats["resumed"] == 0 and len(minv.read_points(out)) == 2
+    # Resumed with other settings, the points would have been measured two ways: refused.
+    kw["min_time"] = 0.002
+    with pytest.raises(ValueError, match=r"made with min_time_s '0.001' \(this run: '0.002'\)"):
+        minv.compare(ScipyCholesky, sizes=(6, 8), resume=True, **kw)
+    assert len(minv.read_points(out)) == 2
 
 
 def test_compare_file_suits_plots(tmp_path, source_dir):
