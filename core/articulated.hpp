@@ -66,14 +66,9 @@ using MatJ = Eigen::Matrix<T, K, K, 0, K == Eigen::Dynamic ? 6 : K, K == Eigen::
 
 // Inverse of a small symmetric positive-definite k×k matrix (k ≤ 6) by Cholesky, D = L Lᵀ
 // (3×3 and 6×6 by its square-root-free form L Δ Lᵀ); Dinv is k×k on entry. K: k at compile time
-// (or Eigen::Dynamic). (The 3×3 adjugate, without square roots, was tried: its error grows as κ²
-// where Cholesky's grows as κ, 4e-8 against 5e-12 on a light spherical body above a heavy sliding
-// child.) The 6×6 form (a floating base) takes 90 ns against Cholesky's 150 on a Zen 4 core: one
-// division per column on the chain from one column to the next, where Cholesky has a square root
-// and a division. The 3×3 pivots from the leading minors m₁, m₂, det D (m₂/m₁, det D/m₂: three
-// independent divisions) took 10 ns a call, as this form does, and were far less accurate: on
-// 20 000 random SPD matrices with κ up to 10¹², scaled by 10⁻³ … 10³, errors up to 4·10⁶ κε
-// against 25 κε.
+// (or Eigen::Dynamic). L Δ Lᵀ has one division per column on the chain from one column to the
+// next, where Cholesky has a square root and a division; the 3×3 adjugate and pivots from
+// leading minors were far less accurate (paper/ENGINEERING.md, "Small SPD inverses").
 template <class T, int K = Eigen::Dynamic, class In, class Out>
 void spdInverse(const In& D, Out&& Dinv) {
   using std::sqrt;
@@ -258,12 +253,9 @@ MINV_NOINLINE int articulatedLinks(const Model& model, const Kinematics<T>& kin,
 }
 
 // Whether bodies i, i − 1, …, i − kRun + 1 are one-DOF links, each the child of the next, and
-// that one one-DOF. Shorter runs (a centipede's legs) keep the plain step: entered from runs of
-// two links the S = 50 centipede's pass took 7 % longer (Zen 5 guest; 50 % from every link, in
-// a first version that also took the caller's IA and carry by address, out of registers).
-// Measured (bench_abi, serial chain, pinned to one core of the Zen 5 guest, 2 rounds
-// alternated): configure 19.7-19.8 -> 16.0-16.2 us at n = 512, 2.41-2.45 -> 2.04-2.05 at 64,
-// 0.60-0.61 -> 0.53 at 16; the branched tree and the S = 5 centipede's step unchanged.
+// that one one-DOF. Shorter runs (a centipede's legs) keep the plain step, which was faster
+// there; along a chain the runs made configure 12-19 % faster (paper/ENGINEERING.md, "Runs of
+// links in the articulated pass").
 inline constexpr int kRun = 4;
 inline bool linkRun(const Model& model, int i) {
   for (int j = i; j > i - kRun; --j)
@@ -309,8 +301,7 @@ void articulatedInertias(const Model& model, const Kinematics<T>& kin, Articulat
     // U, D⁻¹, U D⁻¹ and Ia, on fixed-size blocks for k = 1, 3, 6
     forJointSize(k, [&](auto K) { articulatedStep(K, kin, art, IA, i, v, k, p >= 0, Ia); });
     // The coupling with a one-DOF parent that is the previous body. (This test, linkRun's and
-    // articulatedLinks' are written out: one shared helper for the three made the branched
-    // inverse 5-18 % slower at n = 64 and 512, pinned, 3 rounds, Zen 5 guest.)
+    // articulatedLinks' are written out: one shared helper for the three was slower.)
     if (k == 1 && p >= 0 && p == i - 1 && model.nvOf(p) == 1) {
       const auto S = kin.S.col(v - 1);
       const auto UD = art.UDinv.col(v);

@@ -34,15 +34,8 @@ bool cpuRuns(Isa isa, std::string* why = nullptr);
 
 // Whether pieces of a few cache lines written one column apart into a large column-major
 // matrix (the rows of M⁻¹ that abi mirrors: 16 doubles per column) go out as non-temporal
-// full-line stores rather than plain ones. Chosen from measurements (abi's inverse, serial
-// chain, one thread): streamed was 2.2× faster at n = 4096 and 1.3× at n = 1024 on an Intel
-// Xeon (Emerald Rapids), where each plain piece first reads its lines and the column stride
-// sends them all to one cache set, and 6–28 % faster at n = 1024 … 4096 on AMD Zen 4 (family
-// 0x19). On AMD Zen 5 (family 0x1a) one early measurement found it 25–35 % slower at n = 4096;
-// over six alternating rounds on a Zen 5 guest (2026-12-05) it was as fast at n = 512 and
-// 4096 and faster at 1024 (0.68-0.75 against 0.76-0.88 ms) and 2048 (2.78-3.04 against
-// 3.15-3.41 ms), on the branched tree (n = 1024: 0.97-0.99 against 1.10-1.57 ms) and on two
-// threads (2048: 1.71-1.78 against 1.88-2.06 ms): streamed on every CPU measured.
+// full-line stores rather than plain ones: streamed was as fast or faster on every CPU measured
+// (Intel Xeon, AMD Zen 4 and Zen 5; paper/ENGINEERING.md, "Non-temporal stores").
 // MINV_ABI_ROWS=stream|plain forces either (std::invalid_argument for another value); read at
 // each call (abi reads it in prepare()).
 bool streamStridedRows();

@@ -237,11 +237,8 @@ MINV_INLINE void motionSubspace(const Model& model, const Three<T>* R, const Thr
 
 // I_i about the world origin from body i's world pose (R, p), as mcI (core/spatial.hpp) with
 // m, c = p + R·c_body and R Ī Rᵀ: R Ī, then one triangle of (R Ī) Rᵀ, the only one mcI reads.
-// Measured dead end: on AVX-512, I's columns put together in registers (permutes of h, m and
-// the triangle, one masked store a column instead of 36 scalar ones) made a loop of
-// computeKinematics alone 17 % faster at n = 512, but abi's configure (kinematics, then the
-// articulated pass) no faster: 13.0-13.3 us both (Zen 5 guest, bench_abi parts and a driver
-// of the avx512 module, two rounds alternated).
+// (Measured dead end: I's columns built in registers; paper/ENGINEERING.md, "World inertia
+// columns in registers".)
 template <class T>
 MINV_INLINE void worldInertia(const Model& model, const Three<T>* R, const Three<T>& p,
                               Kinematics<T>& kin, int i) {
@@ -261,10 +258,8 @@ MINV_INLINE void worldInertia(const Model& model, const Three<T>* R, const Three
 
 // Stages "spatial axes" (poses ⁰X_i and world-frame motion subspaces S_i) and "isolated
 // inertias" (I_i), one mark each per body. Each body is done whole, parents first, its parent's
-// pose still in registers along a chain. On one thread: splitting the per-body steps among
-// OpenMP threads (the composition along the tree in order) made abi's configure 2.2-2.5×
-// slower on two threads of a 2-vCPU Zen 5 guest at n = 512 … 2048 (poses crossing between
-// the cores, three barriers), and the simulator's kinematics never gained by it either.
+// pose still in registers along a chain. On one thread: split among OpenMP threads it was
+// 2.2-2.5× slower (paper/ENGINEERING.md, "One configuration per thread").
 template <class T, class Mark>
 void computeKinematics(const Model& model, const VecX<T>& q, Kinematics<T>& kin, Mark&& mark) {
   const int nb = model.nb();

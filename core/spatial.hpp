@@ -31,12 +31,10 @@ namespace minv {
 // operations lane by lane; its layout is the instruction-set level's (the build's, or an abi
 // module's, solvers/abi_variants.hpp):
 // - AVX-512: one 8-lane register (GCC/Clang vector extension, two lanes zero). A body's IA then
-//   stays in 6 of the 32 registers: on a Zen 5 core the articulated pass took 19.3 ns per body
-//   of a 16-link chain against 24.8 for the Eigen 6×6 code it replaced, and 40.5 against 53 on
-//   the S = 5 centipede.
-// - narrower levels: Eigen's 6-entry array (4 + 2 lanes on AVX2, 3 × 2 on SSE). An 8-lane value
-//   costs 113 ns per body there (GCC lowers it through memory), and 16 registers do not hold
-//   IA: 27.4 against 24.6 ns per body on the chain, 51 against 52 on the centipede.
+//   stays in 6 of the 32 registers.
+// - narrower levels: Eigen's 6-entry array (4 + 2 lanes on AVX2, 3 × 2 on SSE), where an 8-lane
+//   value goes through memory and 16 registers do not hold IA.
+// (Measurements: paper/ENGINEERING.md, "Spatial columns as SIMD values".)
 template <class T>
 struct Six {
   T v[6];
@@ -120,11 +118,9 @@ struct Six<double> {
 // (core/kinematics.hpp), in the same manner as Six: on any scalar but double, three scalars and
 // scalar operations, so that the counting scalar counts exactly what the kernel does; on doubles
 // at AVX and above, one 4-lane SIMD value (the fourth lane zero), the same operations lane by
-// lane: a 3×3 product is then 9 vector multiply-adds, not 27 scalar ones (abi's configure on a
-// Zen 4 core, `bench_abi --benchmark_filter='parts/serial/configure/'`, builds before and after
-// alternated: 771-773 -> 645-659 ns at n = 16, 1547-1564 -> 1288-1296 ns at n = 32). Below AVX
-// the 4-lane value is lowered through memory (5.6× slower in a standalone build), so there it is
-// three doubles (abi-baseline at n = 16: 2208 -> 2277-2281 ns, +3 %).
+// lane: a 3×3 product is then 9 vector multiply-adds, not 27 scalar ones. Below AVX the 4-lane
+// value is lowered through memory, so there it is three doubles (measurements:
+// paper/ENGINEERING.md, "Spatial columns as SIMD values").
 // load4 reads a 4-entry column whose fourth entry is zero (BodyColumns, core/kinematics.hpp).
 template <class T>
 struct Three {

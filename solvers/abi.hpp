@@ -67,17 +67,10 @@ inline int omp_thread() {
 #endif
 
 // Columns per SIMD block: 16 doubles, four AVX2 (two AVX-512) registers per row, so each body
-// step has four independent FMA chains to hide the latency of the body-to-body recursion
-// (measured on AVX2, Zen 3, n = 2048: 8 and 12 lanes are slower per column, latency-bound;
-// 16 lanes already spill part of Y to L1, 32 spill more). The counting scalar runs one column
-// at a time: its counts are the kernel's (the links' regrouping included), column by column.
-// Each instruction-set level's module may set its own (MINV_ABI_LANES, CMakeLists.txt); 16 is
-// best at every level measured on Zen 5 (one run per change, each level's time over the
-// unchanged avx512 one, serial n = 256 … 2048): baseline (SSE2) with 8 lanes is no faster,
-// avx2 with 8 is 10–18 % slower, and avx512 with 32 (four zmm per row) is 10–12 % slower.
-// Again with the narrower blocks held in registers (VectorLanes below), two runs: avx2 with 8
-// lanes 7 % slower at n = 16 and 13–22 % from 256 to 2048; baseline with 4 lanes 10 % faster at
-// n = 16 but 8 % slower at 64 and 23–45 % from 256 to 2048.
+// step has four independent FMA chains to hide the latency of the body-to-body recursion; best
+// at every level measured (paper/ENGINEERING.md, "Columns per block"). Each level's module may
+// set its own (MINV_ABI_LANES, CMakeLists.txt). The counting scalar runs one column at a time:
+// its counts are the kernel's (the links' regrouping included), column by column.
 #ifndef MINV_ABI_LANES
 #define MINV_ABI_LANES 16
 #endif
@@ -88,15 +81,10 @@ inline constexpr int kAbiLanes<double> = MINV_ABI_LANES;
 
 // One value per column of a block of W columns. On doubles, where W is one or two of the widest
 // vectors (8 doubles on AVX-512, 4 on AVX, 2 on SSE): an array of such vectors (GCC/Clang vector
-// extension) that the compiler keeps in registers, rows indexed by constants (forRows). As Eigen
-// arrays (loaded and stored through pointers) a sweep's running Y and Δv went through the stack
-// at every body; on a Zen 5 core (avx512 module) the sweeps then took 303 ns at n = 16 and
-// 149 us at 512, against 226 ns and 115 us as vectors. Wider blocks (16 lanes on AVX2 or SSE:
-// a row in 4 or 8 registers of 16) stay Eigen arrays: as vectors they ran 6–8 % slower at
-// n = 16 and 32. Measured again once the groups below existed (which vectors enable, from
-// n = 256): avx2's pipeline as vectors was 5–17 % slower from n = 16 to 4096 (11 % at 16,
-// 12–15 % at 1024; avx2's time over avx512's, two runs alternated with the Eigen arrays).
-// Otherwise (the counting scalar, a one-column block) an Eigen array.
+// extension) that the compiler keeps in registers, rows indexed by constants (forRows), where
+// Eigen arrays sent a sweep's running Y and Δv through the stack at every body. Wider blocks
+// (a row in 4 or 8 registers of 16) and any other scalar: an Eigen array (measurements:
+// paper/ENGINEERING.md, "Lanes held in registers").
 #if defined(__GNUC__)
 #if defined(__AVX512F__)
 inline constexpr int kVectorDoubles = 8;
@@ -201,22 +189,10 @@ struct LaneSpatial {
 
 // Full blocks of columns in groups (abiInverseBlockGroup) where a block's lanes are vectors held
 // in registers (VectorLanes: at the default 16 lanes, the avx512 module): kAbiGroup<T>(nv)
-// blocks a group (1, 2 or 8; 1: blocks go one at a time). A block's mirrored rows in one column of
-// X are W contiguous entries (2 lines at W = 16), the next column's 8·ld bytes on; written one
-// block at a time, each of n = 4096's columns got 2 lines per sweep, 32 KB apart: that store
-// pattern alone took 6.8 ms, in pairs 4.4 ms, 4 blocks 4.0, and n² doubles streamed in
-// order 3.5-3.7 (a probe with no arithmetic). In abi (Zen 5 guest, one core):
-// - pairs from nv = kAbiPairMin (3 rounds alternated with one block at a time, bench_abi):
-//   serial pipeline 12-19 % faster at n = 256, 19-26 % at 512, 19-24 % at 1024, 11-17 % at
-//   2048, -1 … 11 % at 4096; two threads 7-19 % faster from 256 to 2048; branched trees -4 …
-//   3 %; below 256 X stays in the caches and pairs gained nothing (n = 64: 0-5 % slower);
-// - 8 blocks from nv = kAbiOctetMin (group sizes alternated call by call in one process,
-//   medians of 10-40, 2-3 rounds): against pairs 11-13 % faster at n = 4096, 3-7 % at 4608,
-//   8-15 % at 8192; 4 blocks 6-10 % at 4096, 16 no better than 8; at 3072 and below no group
-//   size beat pairs by more than 2 % (at 1024 eight were 4 % slower).
-// With Eigen arrays as lanes (the avx2 and baseline modules) pairs were 6-21 % slower at
-// n = 1024, and eight blocks from n = 4096 were 3-17 % slower on avx2 and 5-9 % faster on
-// baseline (bench_abi, 3 rounds alternated): not taken.
+// blocks a group (1, 2 or 8; 1: blocks go one at a time). A block's mirrored rows in one column
+// of X are W contiguous entries (2 lines at W = 16), the next column's 8·ld bytes on; a group
+// writes its blocks' rows of a column close together in time, which the memory system takes
+// far better than 2 lines per column per sweep (paper/ENGINEERING.md, "Blocks in groups").
 inline constexpr int kAbiGroupChunk = 32;  // bodies per forward piece (16 worse, 64 alike)
 inline constexpr int kAbiPairMin = 256;
 inline constexpr int kAbiOctetMin = 4096;
@@ -337,10 +313,8 @@ inline void abiBackwardBody(const Kinematics<T>& kin, const Articulated<T>& art,
 // regrouped. The dot product now reads Y a body earlier: from one u to the next one multiply-add
 // waits, and the chain through Y (a multiply-add, the dot product, the coupling's multiply-add)
 // spans two bodies, where before a dot product and a multiply-add lay between consecutive
-// bodies (by FMA latencies on Zen 5, about 11.5 cycles a body instead of 20). One multiply and
-// one add more per column and link. Measured (Zen 5 guest, bench_abi, serial chain, one thread,
-// 2 rounds alternated): the sweeps 24-31 % faster from n = 64 to 4096 (4096: 7.27-7.34 ->
-// 5.05-5.17 ms; 1024: 455-476 -> 318-326 us; 64: 2.21-2.27 -> 1.64-1.68 us).
+// bodies. One multiply and one add more per column and link; the sweeps about 25-30 % faster
+// (paper/ENGINEERING.md, "Runs of links regrouped").
 // On exit Y = Y_j + U_j D_j⁻¹ u_j for the run's last body j, what its parent receives; returns j.
 template <class T, int W, bool Unit>
 MINV_INLINE int abiBackwardLinks(const Model& model, const Kinematics<T>& kin,
@@ -467,11 +441,9 @@ inline void abiForwardBody(const Kinematics<T>& kin, const Articulated<T>& art, 
 // starts a 64-byte line; plain stores otherwise, and for any other scalar. M⁻¹'s entries are
 // written once and not read again by the inverse, so reading each line for ownership before
 // overwriting it would only double the memory traffic. abiInverse fences them (abiStoreFence).
-// Used for the column strips above each block's diagonal (whole 8-row lines): on Zen 5 their
-// writes took 16–25 % less time at n = 1024 and 2048 and the same at 4096. The rows left of
-// the diagonal (two lines per column, one column apart) are streamed too (core/cpu.hpp,
-// streamStridedRows: 2.2× faster at n = 4096 on an Intel Xeon, 6–28 % on Zen 4, 7–15 % at
-// n = 1024 and 2048 on Zen 5), or stored plainly where MINV_ABI_ROWS=plain says so.
+// Used for the column strips above each block's diagonal (whole 8-row lines), and for the rows
+// left of the diagonal (two lines per column, one column apart) unless MINV_ABI_ROWS=plain
+// (core/cpu.hpp, streamStridedRows; measurements: paper/ENGINEERING.md, "Non-temporal stores").
 template <class T>
 inline void abiStoreLine(T* dst, const T* src) {
   if constexpr (std::is_same_v<T, double>) {
@@ -564,23 +536,9 @@ inline void abiStoreFence() {
 // - columns: once DOFs v0 … v0+7 < tiles are done, lane w's eight values to col[v0 + w·ld],
 //   one full line per lane, transposed in registers (through a small buffer on other scalars;
 //   col = nullptr: nowhere).
-// Measured dead end: the backward sweeps write nothing, so the upper half of a block's 8-row
-// groups was deferred into the next block's backward sweep (each group stored just before that
-// sweep overwrote its Δq̇). With the rows stored plainly (then Zen 5's choice) the blocks got
-// slower the more was deferred: n = 4096 12.4-13.1 ms with none, 16.6 with a quarter,
-// 19.5-20.0 with half, 27.0 with all (n = 2048: 3.0, 3.7, 4.5, 6.0 ms; Zen 5 guest, medians of
-// 3, the fractions run in shuffled order twice); with the rows streamed, half or all deferred
-// cost 4-10 % (4096: 14.0-14.2 -> 14.7-15.5 ms) and gained nothing at 2048. A second Δq̇
-// buffer instead of the overwrite was as slow.
-// Measured dead end: rows written 4 blocks at a time. Alone (no arithmetic), this writing
-// pattern takes 6.5 ms at n = 4096 and 2 × 64 rows per column 3.7 ms (one line per column
-// costs most). So a group's first three blocks kept their rows in a scratch strip, and the
-// last one wrote all 64 rows of a column together. Paired against one block at a time in one
-// process (alternate calls, medians of 40-500): n = 4096 0.96× (quartiles 0.89-1.01), 2048
-// 1.04×, 1024 1.10×; with 2 or 8 blocks no better. Where the writes go at n = 4096 (blocks,
-// 2 runs): 8.9-9.5 ms without the row stores, 9.3-10.6 with them into an L1 scratch, 11.4-12.0
-// streamed to 8 fixed lines, 14.0-14.4 into X. So half the cost is in the streaming stores
-// themselves, wherever they land. (Zen 5 guest.)
+// (Measured dead ends: tiles deferred into the next block's backward sweep, and rows gathered
+// in a scratch strip to write four blocks' at once; paper/ENGINEERING.md, "Dead ends in the
+// writes".)
 template <class T>
 struct LaneRows {
   T* x = nullptr;
@@ -608,12 +566,9 @@ struct LaneRows {
         if (((v + j + 1) & 7) == 0 && v + j < tiles) tile(u, v + j - 7);
   }
 
-  // Rows v0 … v0+7 of the block's columns, lanes to columns. Transposed in registers on AVX-512,
-  // AVX and SSE2; gathered element by element (128 scalar loads and 16 lines through the stack)
-  // the pipeline was slower (Zen 5 guest, bench_abi pinned to one core, 3 rounds alternated):
-  // serial 3-4 % at n = 256, 3-8 % at 1024, 1-11 % at 2048, within noise at 4096 (-4 … +6 %);
-  // branched 5-8 % at 512; the avx2 module 5-10 % at 256 and 2-12 % at 4096; the baseline
-  // (SSE2) module 1-8 % from 256 to 1024 and -1 … 7 % at 2048 (abi-generic).
+  // Rows v0 … v0+7 of the block's columns, lanes to columns, transposed in registers on
+  // AVX-512, AVX and SSE2 (element by element it was 1-11 % slower: paper/ENGINEERING.md,
+  // "Tiles transposed in registers").
   template <class Lanes>
   void tile(const Lanes& u, int v0) const {
     constexpr int W = std::decay_t<decltype(u[0])>::SizeAtCompileTime;
@@ -689,8 +644,7 @@ MINV_INLINE int abiForwardLinks(const Model& model, const Kinematics<T>& kin,
     // Δq̇_i = D_i⁻¹ u_i − (U_i D_i⁻¹)ᵀ Δv_λ(i)
     q = art.dinv(v) * ws.u[v];
     // (At a root Δv_λ(i) = 0, and the first link adds S_i Δq̇_i to it: on the counting scalar
-    // six additions of zero per column. A separate first step instead measured up to 12 %
-    // slower in the sweeps, one round on Zen 5.)
+    // six additions of zero per column, where a separate first step was slower.)
     if (root)
       dv.setZero();
     else
@@ -733,11 +687,9 @@ struct ForwardCarry {
 // Δq̇_i = D_i⁻¹ u_i − (U_i D_i⁻¹)ᵀ Δv_λ(i), left in ws.u (and in `rows`), and
 // Δv_i = Δv_λ(i) + S_i Δq̇_i; `carry` from the piece before (zero for the first) and to the next.
 // Out of line, the one forward sweep of every block, whole or in pieces: each call keeps its
-// carry in registers (with the pieces of two blocks inlined into one function the branched
-// tree's pairs ran 30-50 % slower, Zen 5; through one more inlined helper taking the carry by
-// reference, Δv stayed on the stack and every sweep ran 15-90 % slower), and a group's blocks
-// and a single block run the same machine code, so that they agree bit for bit (inlined into
-// each caller, FMA contraction differed between them in the last bits).
+// carry in registers, and a group's blocks and a single block run the same machine code, so
+// that they agree bit for bit (inlined into each caller, FMA contraction differed between them
+// in the last bits; paper/ENGINEERING.md, "One out-of-line forward range").
 template <class T, int W>
 __attribute__((noinline)) MINV_FLATTEN void abiForwardRange(
     const Model& model, const Kinematics<T>& kin, const Articulated<T>& art, AbiLanes<T, W>& ws,
@@ -829,16 +781,10 @@ MINV_FLATTEN void abiInverseBlock(const Model& model, const Kinematics<T>& kin,
 // forward sweeps in turn, kAbiGroupChunk bodies at a time (a run of links cut between pieces is
 // resumed, so every entry takes the same operations as in abiInverseBlock), so that the rows of
 // all g blocks in one column of X (gW contiguous entries) are written close together in time.
-// Rows are always mirrored (inverseUpper takes single blocks).
-// Measured dead end: the next group's backward sweeps (which store nothing) cut into pieces and
-// run between these forward pieces, block j's after block j's and sized to end with it, so that
-// the writes would overlap arithmetic. Bit for bit the same M⁻¹, but slower (one process, the
-// two schedules alternated call by call, medians of 15-41, 2 rounds, Zen 5 guest): n = 1024
-// 3 %, 2048 6 %, 4096 10 % (13.2-13.5 against 11.9-12.3 ms). Profiled at 2048 (perf, cpu-clock)
-// the forward pieces took as long as before and the backward pieces 22 % longer: the writes'
-// cost is not bursts of stores waiting on memory that arithmetic between them would hide.
-// ws[j]: block j's scratch. (g a template argument: the carries of kAbiGroupMax blocks, zeroed
-// at each call, cost a pair 2-3 % at n = 256 and 512.)
+// Rows are always mirrored (inverseUpper takes single blocks). ws[j]: block j's scratch; g is a
+// template argument, so that a pair zeroes two carries, not kAbiGroupMax. (Measured dead end:
+// the next group's backward sweeps run in pieces between these forward pieces;
+// paper/ENGINEERING.md, "Dead ends in the writes".)
 template <class T, int W, int g, class Out, class Mark>
 MINV_FLATTEN void abiInverseBlockGroup(const Model& model, const Kinematics<T>& kin,
                                        const Articulated<T>& art, AbiLanes<T, W>* const* ws, int c0,
@@ -873,10 +819,8 @@ MINV_FLATTEN void abiInverseBlockGroup(const Model& model, const Kinematics<T>& 
 // What the sweeps read of a configuration (S, U D⁻¹, D⁻¹), per thread: thread t reads copy t,
 // or the last copy where there are fewer (one copy: every thread reads the same). With
 // `make`, each thread first brings its own copy up to date, make(context, t), inside the same
-// parallel region as its columns (AbiSolver: one fork and one join per configure + inverse).
-// Measured against one copy made by thread 0 while thread 1 waited, then read by both (Zen 5
-// guest, a driver of this header, medians of 201-401 calls, 3 rounds): configure + inverse on
-// two threads 99 against 65 us at n = 512 and 270 against 228-231 us at 1024.
+// parallel region as its columns (AbiSolver: one fork and one join per configure + inverse);
+// one copy made by one thread and read by all was slower (paper/ENGINEERING.md, "Two threads").
 template <class T>
 struct AbiConfigurations {
   const Kinematics<T>* kins;
@@ -949,10 +893,8 @@ void abiInverse(const Model& model, AbiConfigurations<T> config, AbiWorkspace<T>
     NoMark none;
     // Units (groups, then single blocks) are independent and write disjoint parts of Minv;
     // later blocks cost more: the last units first, handed out as threads come free (the
-    // single blocks after the groups, each less than a group, go out before the last group).
-    // (Blocks dealt out instead in a fixed snake order, so that each thread wrote the
-    // same lines every call, took as long at n = 512 and 10 % longer at 1024 and 2048 on two
-    // threads: Zen 5 guest, 6 rounds alternated.)
+    // single blocks after the groups, each less than a group, go out before the last group;
+    // a fixed snake order was slower: paper/ENGINEERING.md, "Units handed out largest first").
 #pragma omp for schedule(dynamic, 1) nowait
     for (int r = 0; r < units; ++r) unit(units - 1 - r, omp_thread(), none);
     abiStoreFence<T>();
@@ -1070,18 +1012,16 @@ class AbiSolver final : public Solver {
  private:
   const Model* model_ = nullptr;
   int threads_ = 1;
-  // Below this many DOFs abi runs on one thread whatever setThreads says: on the 2-vCPU Zen 5
-  // guest two threads were slower up to n = 128 (0.45× at 64, 0.71× at 128; 1.20× at 256),
-  // the forks and the copies' configure costing more than the columns they share.
+  // Below this many DOFs abi runs on one thread whatever setThreads says: the fork and the
+  // copies' configure cost more than the columns they share (two threads 0.71× at n = 128 on
+  // the Zen 5 guest, 1.20× at 256).
   static constexpr int kParallelColumns = 192;
   // Threads used: threads_, or one below kParallelColumns.
   int team() const { return model_->nv() >= kParallelColumns ? threads_ : 1; }
   // One configuration per thread, each computed by its own thread at the start of the next
   // inverse or solve (configure() keeps q; one parallel region does both): a thread's sweeps
-  // then read only lines its own core wrote. Shared, the lines thread 0 rewrote in every
-  // configure were lines the other cores had read in the last inverse, and on a 2-vCPU Zen 5
-  // guest each such write cost ~15 ns (5× a private one): configure ran 2-4× slower on two
-  // threads than on one, kinematics 10.9 -> 42.9 us at n = 512.
+  // then read only lines its own core wrote (shared, thread 0's configure rewrote lines the
+  // other core had read, 2-4× slower: paper/ENGINEERING.md, "Two threads").
   std::vector<Kinematics<double>> kin_;
   std::vector<Articulated<double>> art_;
   std::unique_ptr<AbiWorkspace<double>> ws_;
