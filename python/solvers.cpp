@@ -12,6 +12,7 @@
 //     or copying: out must be a writeable, aligned float64 numpy array of exactly the result's
 //     shape whose columns are contiguous (Fortran order, or a column slice of a Fortran array);
 //     anything else is a ValueError saying what was expected. out must not overlap R.
+//     inverse(upper=True) asks for the upper triangle alone (Solver::inverseUpper).
 //   * R is any real array with nv rows, 2-D (nv, m) or 1-D (nv,) (→ a 1-D result); it is
 //     converted (copied) to float64 Fortran order only when it is not already that.
 //   * prepare / configure / inverse / solve run with the GIL released; a per-handle mutex
@@ -160,22 +161,32 @@ void configure(SolverHandle& h, const py::object& q_object) {
   h.configured = true;
 }
 
-py::array inverse(SolverHandle& h, const py::object& out) {
+// M⁻¹, or with `upper` its upper triangle (Solver::inverseUpper: the strict lower triangle
+// unspecified; a new array starts zeroed).
+py::array inverse(SolverHandle& h, const py::object& out, bool upper) {
   const int nv = requirePrepared(h, "inverse()").nv();
   requireConfigured(h, "inverse()");
   py::array result;
-  if (out.is_none())
-    result = py::array_t<double, py::array::f_style>({nv, nv});
-  else
+  if (out.is_none()) {
+    py::array_t<double, py::array::f_style> fresh({nv, nv});
+    if (upper) std::fill_n(fresh.mutable_data(), fresh.size(), 0.0);
+    result = fresh;
+  } else {
     result = py::reinterpret_borrow<py::array>(out);
+  }
   OuterMap X = mapOut(result, {nv, nv});
   std::unique_lock lock(h.busy, std::defer_lock);
   py::gil_scoped_release release;
   lock.lock();
   requireSameSize(h, nv, "inverse()");
-  h.solver->inverse(X);
+  if (upper)
+    h.solver->inverseUpper(X);
+  else
+    h.solver->inverse(X);
   // M singular to double precision (masses near the smallest doubles): an error, not NaN in X.
-  if (!X.allFinite())
+  const bool finite =
+      upper ? X.triangularView<Eigen::Upper>().toDenseMatrix().allFinite() : X.allFinite();
+  if (!finite)
     throw std::domain_error(
         "inverse(): M⁻¹ is not finite: M is singular in double precision "
         "(masses or inertias too small?)");
@@ -334,9 +345,13 @@ the C++ solver runs.)doc")
            "Allocates for this tree; the solver keeps the model alive.")
       .def("configure", &configure, py::arg("q"),
            "Per configuration q (checked with Model.check_configuration).")
-      .def("inverse", &inverse, py::arg("out") = py::none(), R"doc(
+      .def("inverse", &inverse, py::arg("out") = py::none(), py::kw_only(),
+           py::arg("upper") = false, R"doc(
 M⁻¹ as an (nv, nv) float64 array. out: write into this array instead (float64, shape (nv, nv),
-Fortran order: numpy.empty((nv, nv), order='F')); it is filled in place and returned.)doc")
+Fortran order: numpy.empty((nv, nv), order='F')); it is filled in place and returned.
+upper=True: M⁻¹'s upper triangle (diagonal included), for a symmetric consumer; the strict
+lower triangle is unspecified (abi and lapack leave it as it was, zero in a new array, and take
+less time; other solvers write the whole inverse).)doc")
       .def("solve", &solve, py::arg("R"), py::arg("out") = py::none(), R"doc(
 M⁻¹R for R of shape (nv, m), or (nv,) for one vector. out: write into this array instead
 (float64, the result's shape, Fortran order); it is filled in place and returned.)doc")

@@ -14,8 +14,8 @@ Configurations and M
     ``mass_matrix(model, q)`` (CRBA, an (nv, nv) array).
 Solvers
     ``solvers()`` lists the registry as ``(name, summary)`` tuples; ``make_solver(name)``
-    gives a :class:`Solver` (``prepare``, ``configure``, ``inverse(out=None)``,
-    ``solve(R, out=None)``, ``set_threads``, ``threads``, ``supports``);
+    gives a :class:`Solver` (``prepare``, ``configure``, ``inverse(out=None, *,
+    upper=False)``, ``solve(R, out=None)``, ``set_threads``, ``threads``, ``supports``);
     ``flops(name, model, q, m=0)`` counts operations per stage.
 Your own solver, in Python
     Any object with ``prepare(model)``, ``configure(q)``, ``inverse()`` and ``solve(R)``:

@@ -107,9 +107,8 @@ def _configured(name):
     return model, q, M, solver
 
 
-@pytest.mark.parametrize("name", minv.solver_names())
-@pytest.mark.parametrize("topology,floating", [("serial", False), ("branched", True)])
-def test_every_solver_inverts_M(name, topology, floating):
+def _configured_or_skip(name, topology="branched", floating=True):
+    """(model, q, M, solver) for a 20-link tree, or the test skipped if the solver refuses it."""
     model, q, M = _problem(topology, 20, floating)
     solver = minv.make_solver(name)
     ok, why = solver.supports(model)
@@ -117,6 +116,13 @@ def test_every_solver_inverts_M(name, topology, floating):
         pytest.skip(f"{name} does not support the tree: {why}")
     solver.prepare(model)
     solver.configure(q)
+    return model, q, M, solver
+
+
+@pytest.mark.parametrize("name", minv.solver_names())
+@pytest.mark.parametrize("topology,floating", [("serial", False), ("branched", True)])
+def test_every_solver_inverts_M(name, topology, floating):
+    model, q, M, solver = _configured_or_skip(name, topology, floating)
     X = solver.inverse()
     assert X.shape == (model.nv, model.nv) and X.flags.f_contiguous
     # Backward-stable: |M X - I| / |I| within a generous multiple of nv·cond(M)·eps.
@@ -160,6 +166,26 @@ def test_inverse_out_writes_in_place():
     solver.inverse(out=view)
     np.testing.assert_array_equal(view, X)
     assert (big[nv:, :] == -7.0).all()
+
+
+@pytest.mark.parametrize("name", minv.solver_names())
+def test_inverse_upper_triangle(name):
+    model, q, M, solver = _configured_or_skip(name)
+    nv = model.nv
+    ref = np.linalg.inv(M)
+    tol = 100 * nv * np.linalg.cond(M) * np.finfo(float).eps * np.abs(ref).max()
+    iu = np.triu_indices(nv)
+    U = solver.inverse(upper=True)
+    assert U.shape == (nv, nv) and U.flags.f_contiguous
+    assert np.abs(U[iu] - ref[iu]).max() < tol
+    # abi and lapack write the upper triangle alone: a new array's lower part stays zero and
+    # out's is left as it was.
+    if name in ("abi", "lapack"):
+        il = np.tril_indices(nv, -1)
+        assert (U[il] == 0).all()
+        X = np.full((nv, nv), -7.0, order="F")
+        assert solver.inverse(out=X, upper=True) is X
+        assert (X[il] == -7.0).all() and np.abs(X[iu] - ref[iu]).max() < tol
 
 
 def test_solve_out_writes_in_place():
