@@ -161,7 +161,7 @@ MINV_INLINE void articulatedStep(std::integral_constant<int, K>, const Kinematic
   C S[N] = {}, U[N] = {}, UD[N] = {};
   for (int j = 0; j < k; ++j) {
     const T* s = kin.S.col(v + j).data();
-    S[j] = C::load(s);
+    S[j] = C::loadFar(s);
     U[j] =
         (IA[0] * s[0] + IA[2] * s[2] + IA[4] * s[4]) + (IA[1] * s[1] + IA[3] * s[3] + IA[5] * s[5]);
     U[j].store(art.U.col(v + j).data());
@@ -204,20 +204,22 @@ MINV_NOINLINE int articulatedLinks(const Model& model, const Kinematics<T>& kin,
                                    Articulated<T>& art, int i) {
   using C = Six<T>;
   C IA[6];
-  for (int c = 0; c < 6; ++c) IA[c] = C::load(art.IA[i].data() + 6 * c);
+  for (int c = 0; c < 6; ++c) IA[c] = C::loadFar(art.IA[i].data() + 6 * c);
   int v = model.vIdx(i);
-  C U = C::load(art.U.col(v).data()), UD = C::load(art.UDinv.col(v).data());
+  C U = C::loadFar(art.U.col(v).data()), UD = C::loadFar(art.UDinv.col(v).data());
   T dinv = art.dinv(v);
   for (;;) {
     const int j = i - 1, vj = v - 1;
     // B = I_j (with a branch point's gathered terms) + IA_{j+1}
     T* IAj = art.IA[j].data();
+    // (masked loads and stores along the run, paper/ENGINEERING.md "Masked loads and stores":
+    // a branch point's gathered terms were written a few bodies before, if at all)
     const T* base = art.gathers[j] ? IAj : kin.I[j].data();
     C B[6];
-    for (int c = 0; c < 6; ++c) B[c] = C::load(base + 6 * c) + IA[c];
+    for (int c = 0; c < 6; ++c) B[c] = C::loadFar(base + 6 * c) + IA[c];
     // B S_j, q = S_jᵀ U_{j+1}, D_j = S_jᵀ B S_j − q² D_{j+1}⁻¹
     const T* s = kin.S.col(vj).data();
-    const C S = C::load(s);
+    const C S = C::loadFar(s);
     const C BS =
         (B[0] * s[0] + B[2] * s[2] + B[4] * s[4]) + (B[1] * s[1] + B[3] * s[3] + B[5] * s[5]);
     const T q = dot(S, U);
@@ -227,14 +229,14 @@ MINV_NOINLINE int articulatedLinks(const Model& model, const Kinematics<T>& kin,
     // IA_j = B − U_{j+1} D_{j+1}⁻¹ U_{j+1}ᵀ
     for (int c = 0; c < 6; ++c) {
       IA[c] = B[c] - UD * U[c];
-      IA[c].store(IAj + 6 * c);
+      IA[c].storeFar(IAj + 6 * c);
     }
     // U_j = B S_j − U_{j+1} D_{j+1}⁻¹ q and U_j D_j⁻¹
     U = BS - UD * q;
     UD = U * dj;
     dinv = dj;
-    U.store(art.U.col(vj).data());
-    UD.store(art.UDinv.col(vj).data());
+    U.storeFar(art.U.col(vj).data());
+    UD.storeFar(art.UDinv.col(vj).data());
     art.Dinv[j](0, 0) = dinv;
     art.dinv(vj) = dinv;
     i = j, v = vj;

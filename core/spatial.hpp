@@ -8,6 +8,8 @@
 // flop-counting scalar of core/counting.hpp.
 #pragma once
 
+#include <immintrin.h>
+
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <type_traits>
@@ -46,6 +48,9 @@ struct Six {
   MINV_INLINE void store(T* p) const {
     for (int r = 0; r < 6; ++r) p[r] = v[r];
   }
+  // The same, for memory not written just before (loadFar) or not read just after (storeFar).
+  static MINV_INLINE Six loadFar(const T* p) { return load(p); }
+  MINV_INLINE void storeFar(T* p) const { store(p); }
   MINV_INLINE T operator[](int r) const { return v[r]; }
   friend MINV_INLINE Six operator+(const Six& a, const Six& b) {
     Six c;
@@ -78,6 +83,16 @@ struct Six<double> {
   static MINV_INLINE void storeLanes(const V& v, double* p) {
     for (int r = 0; r < 6; ++r) p[r] = v[r];
   }
+  // One masked instruction each, where the entry-wise forms take five or six; but a masked load
+  // cannot take its data from stores still in flight (store-to-load forwarding), so these are
+  // only for memory not written just before or not read just after (paper/ENGINEERING.md,
+  // "Masked loads and stores").
+  static MINV_INLINE V loadLanesFar(const double* p) {
+    return V(_mm512_maskz_loadu_pd(0x3f, p));
+  }
+  static MINV_INLINE void storeLanesFar(const V& v, double* p) {
+    _mm512_mask_storeu_pd(p, 0x3f, __m512d(v));
+  }
 #else
   using V = Eigen::Array<double, 6, 1>;
   static MINV_INLINE V loadLanes(const double* p) {
@@ -87,6 +102,12 @@ struct Six<double> {
     Eigen::Map<V> to(p);
     to = v;
   }
+  static MINV_INLINE V loadLanesFar(const double* p) {
+    return loadLanes(p);
+  }
+  static MINV_INLINE void storeLanesFar(const V& v, double* p) {
+    storeLanes(v, p);
+  }
 #endif
   V v;
   static MINV_INLINE Six load(const double* p) {
@@ -94,6 +115,13 @@ struct Six<double> {
   }
   MINV_INLINE void store(double* p) const {
     storeLanes(v, p);
+  }
+  // For memory not written just before (loadFar) or not read just after (storeFar).
+  static MINV_INLINE Six loadFar(const double* p) {
+    return {loadLanesFar(p)};
+  }
+  MINV_INLINE void storeFar(double* p) const {
+    storeLanesFar(v, p);
   }
   MINV_INLINE double operator[](int r) const {
     return v[r];
@@ -110,7 +138,14 @@ struct Six<double> {
   // The products as one SIMD value, then summed in the same pairs.
   friend MINV_INLINE double dot(const Six& a, const Six& b) {
     const V p = a.v * b.v;
+#if defined(__GNUC__) && defined(__AVX512F__)
+    // p[0] + p[1], p[2] + p[3], p[4] + p[5] in lanes 0, 2, 4 of one sum
+    typedef long long I __attribute__((vector_size(64)));
+    const V s = p + __builtin_shuffle(p, I{1, 0, 3, 2, 5, 4, 7, 6});
+    return (s[0] + s[2]) + s[4];
+#else
     return (p[0] + p[1]) + (p[2] + p[3]) + (p[4] + p[5]);
+#endif
   }
 };
 
