@@ -204,6 +204,7 @@ MINV_NOINLINE int articulatedLinks(const Model& model, const Kinematics<T>& kin,
                                    Articulated<T>& art, int i) {
   using C = Six<T>;
   C IA[6];
+  // (just written, yet loaded masked: loaded entry by entry, GCC kept the run's IA on the stack)
   for (int c = 0; c < 6; ++c) IA[c] = C::loadFar(art.IA[i].data() + 6 * c);
   int v = model.vIdx(i);
   C U = C::loadFar(art.U.col(v).data()), UD = C::loadFar(art.UDinv.col(v).data());

@@ -139,9 +139,8 @@ struct Six<double> {
   friend MINV_INLINE double dot(const Six& a, const Six& b) {
     const V p = a.v * b.v;
 #if defined(__GNUC__) && defined(__AVX512F__)
-    // p[0] + p[1], p[2] + p[3], p[4] + p[5] in lanes 0, 2, 4 of one sum
-    typedef long long I __attribute__((vector_size(64)));
-    const V s = p + __builtin_shuffle(p, I{1, 0, 3, 2, 5, 4, 7, 6});
+    // p[0] + p[1], p[2] + p[3], p[4] + p[5] in lanes 0, 2, 4 of one sum (each pair swapped)
+    const V s = p + V(_mm512_permute_pd(__m512d(p), 0x55));
     return (s[0] + s[2]) + s[4];
 #else
     return (p[0] + p[1]) + (p[2] + p[3]) + (p[4] + p[5]);

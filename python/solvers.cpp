@@ -184,8 +184,9 @@ py::array inverse(SolverHandle& h, const py::object& out, bool upper) {
   else
     h.solver->inverse(X);
   // M singular to double precision (masses near the smallest doubles): an error, not NaN in X.
-  const bool finite =
-      upper ? X.triangularView<Eigen::Upper>().toDenseMatrix().allFinite() : X.allFinite();
+  bool finite = true;
+  for (int j = 0; j < nv && finite; ++j)
+    finite = upper ? X.col(j).head(j + 1).allFinite() : X.col(j).allFinite();
   if (!finite)
     throw std::domain_error(
         "inverse(): M⁻¹ is not finite: M is singular in double precision "

@@ -399,6 +399,7 @@ void runCentipedeSweep(const CentipedeSweepOptions& o, std::ostream& log) {
   H5Writer h5 = H5Writer::append(o.out);
   h5.setAttribute("/", "experiment", "centipede");
   writeProvenance(h5, "/");
+  // (the last run's; a file may hold points of several, each with its own steps and dt)
   h5.setAttribute("/", "steps", o.steps);
   h5.setAttribute("/", "dt", o.dt);
   h5.setAttribute("/", "rounds", kRounds);  // the paths of a point take turns (see below)

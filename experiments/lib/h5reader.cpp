@@ -5,6 +5,7 @@
 #include <hdf5.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
@@ -52,14 +53,12 @@ std::vector<std::string> attributeNames(hid_t obj) {
   return names;
 }
 
-// The shortest decimal text that reads back as x (0.05, not 0.050000000000000003).
+// The shortest decimal text that reads back as x (0.05, not 0.050000000000000003; 100, not
+// 1e+02), whatever the locale.
 std::string shortestText(double x) {
   char buf[40];
-  for (int digits = 1; digits <= 17; ++digits) {
-    std::snprintf(buf, sizeof buf, "%.*g", digits, x);
-    if (std::strtod(buf, nullptr) == x) break;
-  }
-  return buf;
+  const auto end = std::to_chars(buf, buf + sizeof buf, x).ptr;
+  return std::string(buf, end);
 }
 
 // A scalar attribute's value: double, int64, uint64 or string.
@@ -86,6 +85,10 @@ struct AttrValue {
 AttrValue readAttribute(hid_t obj, const std::string& name, const std::string& file) {
   Hid a(H5Aopen(obj, name.c_str(), H5P_DEFAULT), H5Aclose);
   if (a < 0) readFail("open attribute " + name, file);
+  // One value (any file may be given: an array attribute would overrun the reads below)
+  Hid space(H5Aget_space(a), H5Sclose);
+  if (H5Sget_simple_extent_npoints(space) != 1)
+    readFail("read attribute " + name + " (not a single value)", file);
   Hid type(H5Aget_type(a), H5Tclose);
   AttrValue v;
   switch (H5Tget_class(type)) {
