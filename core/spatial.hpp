@@ -83,16 +83,6 @@ struct Six<double> {
   static MINV_INLINE void storeLanes(const V& v, double* p) {
     for (int r = 0; r < 6; ++r) p[r] = v[r];
   }
-  // One masked instruction each, where the entry-wise forms take five or six; but a masked load
-  // cannot take its data from stores still in flight (store-to-load forwarding), so these are
-  // only for memory not written just before or not read just after (paper/ENGINEERING.md,
-  // "Masked loads and stores").
-  static MINV_INLINE V loadLanesFar(const double* p) {
-    return V(_mm512_maskz_loadu_pd(0x3f, p));
-  }
-  static MINV_INLINE void storeLanesFar(const V& v, double* p) {
-    _mm512_mask_storeu_pd(p, 0x3f, __m512d(v));
-  }
 #else
   using V = Eigen::Array<double, 6, 1>;
   static MINV_INLINE V loadLanes(const double* p) {
@@ -102,12 +92,6 @@ struct Six<double> {
     Eigen::Map<V> to(p);
     to = v;
   }
-  static MINV_INLINE V loadLanesFar(const double* p) {
-    return loadLanes(p);
-  }
-  static MINV_INLINE void storeLanesFar(const V& v, double* p) {
-    storeLanes(v, p);
-  }
 #endif
   V v;
   static MINV_INLINE Six load(const double* p) {
@@ -116,12 +100,23 @@ struct Six<double> {
   MINV_INLINE void store(double* p) const {
     storeLanes(v, p);
   }
-  // For memory not written just before (loadFar) or not read just after (storeFar).
+  // For memory not written just before (loadFar) or not read just after (storeFar). On AVX-512
+  // one masked instruction each, where the entry-wise forms take five or six; but a masked load
+  // cannot take its data from stores still in flight (store-to-load forwarding), hence apart
+  // (paper/ENGINEERING.md, "Masked loads and stores").
   static MINV_INLINE Six loadFar(const double* p) {
-    return {loadLanesFar(p)};
+#if defined(__GNUC__) && defined(__AVX512F__)
+    return {V(_mm512_maskz_loadu_pd(0x3f, p))};
+#else
+    return load(p);
+#endif
   }
   MINV_INLINE void storeFar(double* p) const {
-    storeLanesFar(v, p);
+#if defined(__GNUC__) && defined(__AVX512F__)
+    _mm512_mask_storeu_pd(p, 0x3f, __m512d(v));
+#else
+    store(p);
+#endif
   }
   MINV_INLINE double operator[](int r) const {
     return v[r];

@@ -5,15 +5,12 @@
 #include <hdf5.h>
 
 #include <algorithm>
-#include <charconv>
 #include <cstdint>
-#include <cstdio>
-#include <cstdlib>
 #include <filesystem>
-#include <iterator>
 #include <set>
 #include <stdexcept>
 
+#include "core/model.hpp"
 #include "experiments/lib/h5writer.hpp"
 
 namespace minv {
@@ -53,14 +50,6 @@ std::vector<std::string> attributeNames(hid_t obj) {
   return names;
 }
 
-// The shortest decimal text that reads back as x (0.05, not 0.050000000000000003; 100, not
-// 1e+02), whatever the locale.
-std::string shortestText(double x) {
-  char buf[40];
-  const auto end = std::to_chars(buf, buf + sizeof buf, x).ptr;
-  return std::string(buf, end);
-}
-
 // A scalar attribute's value: double, int64, uint64 or string.
 struct AttrValue {
   enum Kind { Double, Int, UInt, String } kind = String;
@@ -71,7 +60,7 @@ struct AttrValue {
   std::string text() const {
     switch (kind) {
       case Double:
-        return shortestText(d);
+        return formatNumber(d);
       case Int:
         return std::to_string(i);
       case UInt:
@@ -253,9 +242,24 @@ void requireTimingSweep(hid_t file, const std::string& what, const std::string& 
         (experiment == "timing" ? ", no points group" : "") + hint + ")");
 }
 
+// The `settings` that `obj` holds with another value, as "name 'held' (<label>'text')", joined
+// by ", " ("" if none); a setting it does not hold is passed over.
+std::string differingSettings(hid_t obj, const std::vector<SweepSetting>& settings,
+                              const std::string& file, const std::string& label) {
+  std::string differ;
+  for (const SweepSetting& s : settings) {
+    if (H5Aexists(obj, s.name.c_str()) <= 0) continue;
+    const std::string held = readAttribute(obj, s.name, file).text();
+    if (held != s.text)
+      differ +=
+          (differ.empty() ? "" : ", ") + s.name + " '" + held + "' (" + label + "'" + s.text + "')";
+  }
+  return differ;
+}
+
 }  // namespace
 
-SweepSetting::SweepSetting(std::string n, double v) : name(std::move(n)), text(shortestText(v)) {}
+SweepSetting::SweepSetting(std::string n, double v) : name(std::move(n)), text(formatNumber(v)) {}
 
 void requireSameSettings(const std::string& path, const std::string& option,
                          const std::vector<SweepSetting>& settings,
@@ -276,18 +280,16 @@ void requireSameSettings(const std::string& path, const std::string& option,
     if (!present) continue;
     Hid obj(H5Oopen(file, object.c_str(), H5P_DEFAULT), H5Oclose);
     if (obj < 0) readFail("open " + object, path);
-    std::string differ;
-    for (const SweepSetting& s : settings) {
-      if (H5Aexists(obj, s.name.c_str()) <= 0) continue;
-      const std::string held = readAttribute(obj, s.name, path).text();
-      if (held != s.text && s.name == "experiment")
-        throw std::invalid_argument(option + " '" + path + "' holds experiment '" + held +
-                                    "', not '" + s.text +
-                                    "': write to another file, or remove this one");
-      if (held != s.text)
-        differ +=
-            (differ.empty() ? "" : ", ") + s.name + " '" + held + "' (this run: '" + s.text + "')";
-    }
+    // Another experiment's file, said so first.
+    for (const SweepSetting& s : settings)
+      if (s.name == "experiment" && H5Aexists(obj, "experiment") > 0) {
+        const std::string held = readAttribute(obj, s.name, path).text();
+        if (held != s.text)
+          throw std::invalid_argument(option + " '" + path + "' holds experiment '" + held +
+                                      "', not '" + s.text +
+                                      "': write to another file, or remove this one");
+      }
+    const std::string differ = differingSettings(obj, settings, path, "this run: ");
     if (!differ.empty())
       throw std::invalid_argument(
           option + " '" + path + "' holds " +
@@ -302,8 +304,7 @@ int mergeResultFiles(const std::vector<std::string>& inputs, const std::string& 
   // Only timing sweeps (shards or merged files), all before the output is begun: any other
   // file would merge to 0 points. Their points must have been measured alike: the settings
   // of a sweep (the root's, which the merged file keeps from the first input) must agree.
-  const char* const kSettings[] = {"mode", "seed", "min_time_s", "repetitions"};
-  std::vector<std::string> first;
+  std::vector<SweepSetting> first;  // the first input's settings, as it holds them
   for (const std::string& in : inputs) {
     silenceHdf5Errors();
     Hid file(H5Fopen(in.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
@@ -314,17 +315,13 @@ int mergeResultFiles(const std::vector<std::string>& inputs, const std::string& 
     requireTimingSweep(file, "input file '" + in + "'",
                        "; merge joins the shard files of `minv time --shard`");
     Hid root(H5Gopen2(file, "/", H5P_DEFAULT), H5Gclose);
-    std::string differ;
-    for (std::size_t k = 0; k < std::size(kSettings); ++k) {
-      const char* name = kSettings[k];
-      const std::string value =
-          H5Aexists(root, name) > 0 ? readAttribute(root, name, in).text() : "(none)";
-      if (first.size() < std::size(kSettings))
-        first.push_back(value);
-      else if (value != first[k])
-        differ += (differ.empty() ? "" : ", ") + std::string(name) + " '" + value + "' (not '" +
-                  first[k] + "')";
+    if (&in == &inputs[0]) {
+      for (const char* name : {"mode", "seed", "min_time_s", "repetitions"})
+        if (H5Aexists(root, name) > 0)
+          first.emplace_back(name, readAttribute(root, name, in).text());
+      continue;
     }
+    const std::string differ = differingSettings(root, first, in, "not ");
     if (!differ.empty())
       throw std::invalid_argument("input file '" + in + "' was measured with " + differ +
                                   " of input file '" + inputs[0] +

@@ -16,8 +16,8 @@ namespace minv {
 // Returns the number of points.
 int mergeResultFiles(const std::vector<std::string>& inputs, const std::string& out);
 
-// A setting of a sweep as a result file holds it: name and value as text (a double as the
-// shortest decimal that reads back as it, integers in full, strings as they are).
+// A setting of a sweep as a result file holds it: name and value as text (a double as
+// formatNumber writes it, core/model.hpp; integers in full; strings as they are).
 struct SweepSetting {
   std::string name, text;
   SweepSetting(std::string n, std::string v) : name(std::move(n)), text(std::move(v)) {}
