@@ -218,13 +218,14 @@ MINV_NOINLINE int articulatedLinks(const Model& model, const Kinematics<T>& kin,
     const T* base = art.gathers[j] ? IAj : kin.I[j].data();
     C B[6];
     for (int c = 0; c < 6; ++c) B[c] = C::loadFar(base + 6 * c) + IA[c];
-    // B S_j, q = S_jᵀ U_{j+1}, D_j = S_jᵀ B S_j − q² D_{j+1}⁻¹
+    // B S_j, q = S_jᵀ U_{j+1}, D_j = S_jᵀ B S_j − q (q D_{j+1}⁻¹) (q² alone underflows for
+    // masses below 1e-154; q D⁻¹ is of order one)
     const T* s = kin.S.col(vj).data();
     const C S = C::loadFar(s);
     const C BS =
         (B[0] * s[0] + B[2] * s[2] + B[4] * s[4]) + (B[1] * s[1] + B[3] * s[3] + B[5] * s[5]);
     const T q = dot(S, U);
-    const T dj = T(1) / (dot(S, BS) - q * q * dinv);
+    const T dj = T(1) / (dot(S, BS) - q * (q * dinv));
     // The coupling c_{j+1} = −S_jᵀ U_{j+1} D_{j+1}⁻¹
     art.couple(v) = -(q * dinv);
     // IA_j = B − U_{j+1} D_{j+1}⁻¹ U_{j+1}ᵀ

@@ -22,7 +22,8 @@ namespace {
 constexpr int kRhsColumns = 11;
 
 double rel(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
-  return (a - b).norm() / std::max(b.norm(), 1e-300);
+  // (stableNorm: entries of M⁻¹ reach 1e300 where masses are 1e-300)
+  return (a - b).stableNorm() / std::max(b.stableNorm(), 1e-300);
 }
 
 // The case's trees side by side, each body's parent renumbered (roots stay −1).
@@ -48,6 +49,19 @@ Model forest(const ConformanceCase& c) {
 
 Model buildModel(const ConformanceCase& c) {
   Model m = c.beside.empty() ? randomTree(c.options) : forest(c);
+  if (c.mass_scale != 1) {
+    std::vector<int> parent;
+    std::vector<Joint> joints;
+    std::vector<Body> bodies;
+    for (int i = 0; i < m.nb(); ++i) {
+      parent.push_back(m.parent(i));
+      joints.push_back(m.joint(i));
+      bodies.push_back(m.body(i));
+      bodies.back().mass *= c.mass_scale;
+      bodies.back().inertia *= c.mass_scale;
+    }
+    m = Model::create(std::move(parent), std::move(joints), std::move(bodies));
+  }
   if (!c.via_urdf) return m;
   std::ostringstream xml;
   writeUrdf(m, xml, c.name);
@@ -90,6 +104,19 @@ std::vector<ConformanceCase> conformanceCases(const ConformanceOptions& options)
     TreeOptions a{Topology::Serial, first, seed, true, JointSet::Mixed};
     TreeOptions b{Topology::Branched, n - first, seed + 1, false, JointSet::Revolute};
     out.push_back({"forest_mixed_floating_n" + std::to_string(n), a, false, {b}});
+  }
+  // Masses of 1e-200 and 1e-300 (kg; inertias alike): chains, where runs of links regroup D
+  if (options.max_n >= 32) {
+    out.push_back({"serial_mixed_floating_n32_mass1e-200",
+                   {Topology::Serial, 32, 3032, true, JointSet::Mixed},
+                   false,
+                   {},
+                   1e-200});
+    out.push_back({"serial_revolute_fixed_n32_mass1e-300",
+                   {Topology::Serial, 32, 3033, false, JointSet::Revolute},
+                   false,
+                   {},
+                   1e-300});
   }
   return out;
 }

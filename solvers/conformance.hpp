@@ -51,6 +51,9 @@ struct ConformanceCase {
   bool via_urdf = false;
   // Further trees beside the first, each with its own root (parent −1): a forest.
   std::vector<TreeOptions> beside = {};
+  // Every mass and inertia times this: M⁻¹ scales by its inverse, which a solver must follow
+  // to the ends of the double range (a product of two masses underflows below 1e-154).
+  double mass_scale = 1;
 };
 
 // Which cases to run.

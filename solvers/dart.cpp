@@ -4,6 +4,7 @@
 
 #include <dlfcn.h>
 
+#include <Eigen/Eigenvalues>
 #include <stdexcept>
 #include <string>
 
@@ -55,7 +56,28 @@ DartSolver::~DartSolver() = default;
 
 bool DartSolver::supports(const Model& model, std::string* why) const {
   // Every joint type and every inertia a Model accepts (positive mass, positive definite
-  // rotational inertia) has a DART counterpart; only a missing bridge module stops us.
+  // rotational inertia) has a DART counterpart. But DART inverts a ball joint's 3×3
+  // articulated inertia through its determinant, the cube of the masses' scale: outside
+  // [1e-100, 1e100] it leaves the double range, and DART aborts the process on the NaN.
+  for (int i = 0; i < model.nb(); ++i) {
+    if (model.joint(i).type != JointType::Spherical) continue;
+    for (int k = 0; k < model.nb(); ++k) {
+      const Body& b = model.body(k);
+      const Eigen::Vector3d moments =
+          Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(0.5 * (b.inertia + b.inertia.transpose()),
+                                                         Eigen::EigenvaluesOnly)
+              .eigenvalues();
+      if (b.mass < 1e-100 || b.mass > 1e100 || moments(0) < 1e-100 || moments(2) > 1e100) {
+        if (why)
+          *why = "dart: body " + std::to_string(k) +
+                 " has a mass or principal moment of inertia outside [1e-100, 1e100], where "
+                 "DART's inverse of a ball joint's 3x3 articulated inertia leaves the double "
+                 "range (DART aborts on the NaN)";
+        return false;
+      }
+    }
+    break;
+  }
   const BridgeModule& module = bridgeModule();
   if (module.create) return true;
   if (why) *why = module.error;
