@@ -44,7 +44,9 @@ Body rod(const std::string& name, double m, double l, double r, int axis, Eigen:
 }  // namespace
 
 Centipede makeCentipede(const CentipedeOptions& o) {
-  if (o.segments < 1) throw ModelError("centipede: --segments must be at least 1");
+  if (o.segments < 1 || o.segments > kMaxCentipedeSegments)
+    throw ModelError("centipede: segments must be between 1 and " +
+                     std::to_string(kMaxCentipedeSegments) + ", got " + std::to_string(o.segments));
   for (double x : {o.segment_length, o.segment_width, o.segment_height, o.segment_mass,
                    o.upper_length, o.lower_length, o.upper_mass, o.lower_mass, o.leg_radius})
     if (!(x > 0) || !std::isfinite(x))

@@ -33,6 +33,9 @@ enum class SegmentJoint { Yaw, Spherical };
 SegmentJoint segmentJointFromName(const std::string& name);  // "yaw" | "spherical", else ModelError
 const char* segmentJointName(SegmentJoint j);
 
+// The most segments a centipede may have (80 003 DOFs): far beyond any research use.
+inline constexpr int kMaxCentipedeSegments = 10000;
+
 struct CentipedeOptions {
   int segments = 20;
   SegmentJoint segment_joint = SegmentJoint::Yaw;
@@ -55,7 +58,8 @@ struct Centipede {
   static int side(int leg) { return leg % 2 == 0 ? 1 : -1; }
 };
 
-// Builds the centipede; throws ModelError for segments < 1 or a non-positive size or mass.
+// Builds the centipede; throws ModelError for segments outside [1, kMaxCentipedeSegments]
+// or a non-positive size or mass.
 Centipede makeCentipede(const CentipedeOptions& options);
 
 // Standing configuration: neutral joints, the head at (0, 0, lower_length + clearance).

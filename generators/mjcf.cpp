@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "core/spatial.hpp"
+#include "generators/model_io.hpp"
 
 namespace minv {
 
@@ -199,6 +200,11 @@ class HeldWarnings {
   ~HeldWarnings() { held_warnings = outer_; }
   HeldWarnings(const HeldWarnings&) = delete;
   HeldWarnings& operator=(const HeldWarnings&) = delete;
+  bool any(std::string_view part) const {
+    for (const std::string& w : list_)
+      if (w.find(part) != std::string::npos) return true;
+    return false;
+  }
   void print() {
     held_warnings = outer_;
     for (const std::string& w : list_) printingWarning(w.c_str());
@@ -488,9 +494,13 @@ Model modelFromMujoco(const mjModel* m, bool floating_base, const std::string& s
 }
 
 Model loadMjcf(const std::string& path, bool floating_base) {
+  requireInputFile(path);
   HeldWarnings warnings;
   const MjModelPtr m = compileMujocoFile(path);
   Model model = asModelError(path, [&] { return modelFromMujoco(m.get(), floating_base, path); });
+  // A NaN that minv's checks did not name: MuJoCo read it as 0 and only warned
+  if (warnings.any("XML contains a 'NaN'"))
+    throw ModelError(path + ": the file contains a NaN (MuJoCo would read it as 0)");
   warnings.print();
   return model;
 }

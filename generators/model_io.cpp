@@ -92,9 +92,7 @@ std::string dump(const ojson& j) {
 
 // The whole file; ModelError naming the path if it is missing, unreadable or empty.
 std::string readFile(const std::string& path) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  if (fs::is_directory(path, ec)) throw ModelError("cannot open '" + path + "': is a directory");
+  requireInputFile(path);
   std::ifstream f(path, std::ios::binary);
   if (!f) throw ModelError("cannot open '" + path + "': " + std::strerror(errno));
   std::ostringstream s;
@@ -103,6 +101,30 @@ std::string readFile(const std::string& path) {
   if (s.str().empty()) throw ModelError("'" + path + "': file is empty");
   return s.str();
 }
+
+}  // namespace
+
+void requireInputFile(const std::string& path) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::file_status st = fs::status(path, ec);
+  if (fs::is_directory(st)) throw ModelError("cannot open '" + path + "': is a directory");
+  if (fs::exists(st) && !fs::is_regular_file(st))
+    throw ModelError("cannot read '" + path + "': not a regular file (a device, FIFO or socket)");
+}
+
+void requireOutputFile(const std::string& path) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::file_status st = fs::status(path, ec);
+  if (fs::is_directory(st)) throw ModelError("output '" + path + "' is a directory; name a file");
+  if (fs::exists(st) && !fs::is_regular_file(st))
+    throw ModelError("output '" + path +
+                     "' exists and is not a regular file (a device, FIFO or socket): writing "
+                     "would replace it; name a regular file");
+}
+
+namespace {
 
 // The extension in lower case, with its dot.
 std::string extension(const std::string& path) {
@@ -690,6 +712,7 @@ void saveModel(const Model& m, const std::string& path) {
     throw ModelError("'" + path + "': unknown model file extension '" + ext +
                      "' (expected .json or .urdf)");
   // Write a temporary file, then rename it over the target.
+  requireOutputFile(path);
   const std::string tmp = path + ".tmp";
   {
     std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
@@ -810,9 +833,7 @@ Eigen::VectorXd readConfiguration(const Model& model, std::istream& in, const st
 }
 
 Eigen::VectorXd loadConfiguration(const Model& model, const std::string& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec))
-    throw ModelError("cannot open configuration file '" + path + "': is a directory");
+  requireInputFile(path);
   std::ifstream in(path);
   if (!in) throw ModelError("cannot open configuration file '" + path + "'");
   return readConfiguration(model, in, path);

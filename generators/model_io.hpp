@@ -72,6 +72,14 @@ Model readUrdf(const std::string& xml, const std::string& source_name, bool floa
 // spherical joint, a floating model with more than one root, or bad names.
 void writeUrdf(const Model& model, std::ostream& out, const std::string& robot_name);
 
+// The files the harness reads and writes, checked before they are opened (ModelError naming the
+// path). An input must be a regular file after symbolic links: a FIFO would block the read and
+// a device such as /dev/zero never ends. An output, written to a tmp file that is then renamed
+// over it, must be absent or a regular file: the rename would replace a device (/dev/null), a
+// FIFO or a socket.
+void requireInputFile(const std::string& path);
+void requireOutputFile(const std::string& path);
+
 // By extension: .json, .urdf, or .xml for MJCF (generators/mjcf.hpp, MuJoCo's parser). A
 // missing, unreadable or empty file is a ModelError naming the path. floating_base = true gives a
 // fixed-base JSON model a floating base through withFloatingBase (a JSON model that has one keeps

@@ -141,6 +141,9 @@ std::vector<int> randomParents(Topology topology, int n, Rng& rng) {
 
 Model randomTree(const TreeOptions& o) {
   if (o.n <= 0) throw ModelError("random tree: n must be at least 1, got " + std::to_string(o.n));
+  if (o.n > kMaxTreeLinks)
+    throw ModelError("random tree: n must be at most " + std::to_string(kMaxTreeLinks) + ", got " +
+                     std::to_string(o.n));
   // Separate streams for the topology and for the bodies (see the header).
   Rng topo(o.seed), rng(o.seed ^ 0x9e3779b97f4a7c15ULL);
   const std::vector<int> links = randomParents(o.topology, o.n, topo);

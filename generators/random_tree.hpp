@@ -91,7 +91,12 @@ struct TreeOptions {
 // could never be one.)
 std::vector<int> randomParents(Topology topology, int n, Rng& rng);
 
-// A random tree as described at the top of this file; throws ModelError for n ≤ 0.
+// The most links a random tree may have: far beyond any research use, and well before memory
+// runs out.
+inline constexpr int kMaxTreeLinks = 1000000;
+
+// A random tree as described at the top of this file; throws ModelError for n outside
+// [1, kMaxTreeLinks].
 Model randomTree(const TreeOptions& options);
 
 // Right-hand sides R (rows × cols): entries uniform in [−1, 1), column by column from

@@ -14,6 +14,7 @@
 #include <pybind11/pybind11.h>
 
 #include <Eigen/Core>
+#include <climits>
 #include <cstdint>
 #include <mutex>
 #include <string>
@@ -33,6 +34,14 @@ void waitFor(Lock& lock) {
   lock.lock();
 }
 
+// An int argument (a size, a count): any Python integer, or object with __index__ such as
+// numpy's; one outside C's int is a ValueError naming it (pybind11's own int gives a TypeError
+// listing every signature). The range a size must lie in is the callee's to check.
+struct Int {
+  int value = 0;
+  operator int() const { return value; }  // NOLINT: used as the int it holds
+};
+
 // A seed from a Python int: ValueError for a negative or too large one.
 std::uint64_t seedFrom(const py::int_& seed, const char* what = "seed");
 
@@ -42,3 +51,29 @@ std::uint64_t seedFrom(const py::int_& seed, const char* what = "seed");
 Eigen::VectorXd realVector(const py::handle& v, const char* what);
 
 }  // namespace minv::python
+
+namespace pybind11::detail {
+template <>
+struct type_caster<minv::python::Int> {
+  PYBIND11_TYPE_CASTER(minv::python::Int, const_name("int"));
+  bool load(handle src, bool) {
+    // floats are not sizes (pybind11's int refuses them too)
+    if (!src || PyFloat_Check(src.ptr())) return false;
+    const object index = reinterpret_steal<object>(PyNumber_Index(src.ptr()));
+    if (!index) {
+      PyErr_Clear();
+      return false;
+    }
+    int overflow = 0;
+    const long long v = PyLong_AsLongLongAndOverflow(index.ptr(), &overflow);
+    if (overflow != 0 || v < INT_MIN || v > INT_MAX)
+      throw value_error(repr(src).cast<std::string>() +
+                        " is out of range: an int argument lies in [-2**31, 2**31)");
+    value.value = static_cast<int>(v);
+    return true;
+  }
+  static handle cast(minv::python::Int src, return_value_policy, handle) {
+    return PyLong_FromLong(src.value);
+  }
+};
+}  // namespace pybind11::detail

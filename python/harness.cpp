@@ -148,9 +148,11 @@ class RegistrationGuard {
 py::dict compare(const std::string& name, const std::string& label, const std::string& summary,
                  const py::object& factory, const std::vector<int>& sizes,
                  const std::vector<std::string>& topologies,
-                 const std::vector<std::string>& against, const std::string& path, int repetitions,
-                 double min_time, const std::string& mode, const py::object& log) {
+                 const std::vector<std::string>& against, const std::string& path,
+                 Int repetitions_arg, double min_time, const std::string& mode,
+                 const py::object& log) {
   // Validate everything before any work.
+  const int repetitions = repetitions_arg;
   if (const std::string why = solverNameProblem(name); !why.empty()) throw py::value_error(why);
   if (sizes.empty()) throw py::value_error("sizes must not be empty");
   for (int n : sizes)
@@ -275,7 +277,7 @@ of the C++ suite.)doc")
 
   m.def(
       "_check",
-      [](const std::string& label, const py::object& factory, int max_n, bool urdf,
+      [](const std::string& label, const py::object& factory, Int max_n, bool urdf,
          bool two_threads, bool reconfigure) {
         const ConformanceOptions o = conformanceOptions(max_n, urdf, two_threads, reconfigure);
         return checkWith(label, pythonFactory(shareObject(factory), label), o);
@@ -284,7 +286,7 @@ of the C++ suite.)doc")
       py::arg("two_threads") = true, py::arg("reconfigure") = true);
   m.def(
       "_check_registered",
-      [](const std::string& name, int max_n, bool urdf, bool two_threads, bool reconfigure) {
+      [](const std::string& name, Int max_n, bool urdf, bool two_threads, bool reconfigure) {
         const ConformanceOptions o = conformanceOptions(max_n, urdf, two_threads, reconfigure);
         // A copy of the factory: the registry may grow (and move) while the checks run.
         const SolverEntry* e = findSolver(name);

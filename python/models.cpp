@@ -119,7 +119,7 @@ problem.)doc");
   // Generators.
   m.def(
       "random_tree",
-      [](const std::string& topology, int n, const py::int_& seed, bool floating_base,
+      [](const std::string& topology, Int n, const py::int_& seed, bool floating_base,
          const std::string& joints) {
         TreeOptions o;
         o.topology = topologyFromName(topology);
@@ -136,7 +136,7 @@ A random tree of n jointed links (generators/random_tree.hpp): topology 'serial'
 body. Deterministic in the seed.)doc");
   m.def(
       "centipede",
-      [](int segments, const std::string& segment_joint) {
+      [](Int segments, const std::string& segment_joint) {
         CentipedeOptions o;
         o.segments = segments;
         o.segment_joint = segmentJointFromName(segment_joint);
@@ -176,7 +176,8 @@ body. Deterministic in the seed.)doc");
   // Operation counts (the GIL stays held: the counters are per thread, reset per count).
   m.def(
       "flops",
-      [](const std::string& name, const Model& model, const py::object& q_object, int m) {
+      [](const std::string& name, const Model& model, const py::object& q_object, Int m_arg) {
+        const int m = m_arg;
         // (As `minv flops --rhs`: the counted run holds dense nv × m matrices.)
         if (m < 0 || m > 100000)
           throw py::value_error("m must be between 0 and 100000, got " + std::to_string(m));

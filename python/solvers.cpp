@@ -323,7 +323,8 @@ the C++ solver runs.)doc")
           "Threads the solver will actually use.")
       .def(
           "set_threads",
-          [](SolverHandle& h, int n) {
+          [](SolverHandle& h, Int n_arg) {
+            const int n = n_arg;
             if (n < 1 || n > kMaxThreads)
               throw py::value_error("threads must be between 1 and " + std::to_string(kMaxThreads) +
                                     ", got " + std::to_string(n));

@@ -91,7 +91,7 @@ TEST(CentipedeCli, SimulateErrorsAreOneLine) {
   EXPECT_FALSE(std::filesystem::exists(path));
   out = run("simulate centipede --segments 3 --dt inf --out " + path, &status);
   EXPECT_EQ(status, 2);
-  EXPECT_NE(out.find("--dt must be a finite positive step"), std::string::npos) << out;
+  EXPECT_NE(out.find("--dt must be a step in (0, 1] s"), std::string::npos) << out;
   // 0 and a team OpenMP cannot start (65 536 crashed libgomp) are both refused.
   for (const char* threads : {"0", "65536"}) {
     out =

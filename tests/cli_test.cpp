@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <hdf5.h>
 #include <stdlib.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 
 #include <Eigen/Cholesky>
@@ -595,19 +596,74 @@ TEST_F(CliBadInput, TimeMinTimeAndRepetitions) {
   expectFailure("time --mode tiny --repetitions 99999999999 --out out.h5", "out of range");
 }
 
+// Special files: an input FIFO is refused (the read blocked), and an output that is a FIFO
+// (or a device: /dev/null was replaced by a regular file) is neither written nor replaced.
+TEST_F(CliBadInput, SpecialFilesAreNeitherReadNorReplaced) {
+  ASSERT_EQ(minv("generate --topology serial --n 3 --out s3.json").status, 0);
+  ASSERT_EQ(mkfifo(path("fifo.json").c_str(), 0600), 0);
+  ASSERT_EQ(mkfifo(path("fifo.h5").c_str(), 0600), 0);
+  expectFailure("solve --model fifo.json --out out.h5", "cannot read 'fifo.json': not a regular");
+  expectFailure("solve --model s3.json --q fifo.json --out out.h5", "not a regular file");
+  for (const char* args :
+       {"solve --model s3.json --out fifo.h5", "generate --topology serial --n 3 --out fifo.json",
+        "experiment flops --max-n 4 --out fifo.h5"}) {
+    const CliRun r = minv(args);
+    EXPECT_EQ(r.status, 2) << args << "\n" << r.err;
+    EXPECT_NE(r.err.find("exists and is not a regular file"), std::string::npos) << r.err;
+  }
+  EXPECT_TRUE(fs::is_fifo(path("fifo.json")));
+  EXPECT_TRUE(fs::is_fifo(path("fifo.h5")));
+}
+
+// A sweep appends only to its own kind of file: a `solve` result has no experiment attribute,
+// and accuracy points were added into it.
+TEST_F(CliBadInput, SweepsDoNotAppendToOtherResults) {
+  ASSERT_EQ(minv("generate --topology serial --n 3 --out s3.json").status, 0);
+  ASSERT_EQ(minv("solve --model s3.json --out r.h5").status, 0);
+  const CliRun r = minv("experiment accuracy --mode tiny --out r.h5");
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_NE(r.err.find("holds results that are not a sweep's"), std::string::npos) << r.err;
+  EXPECT_FALSE(H5File(path("r.h5")).has("/points"));
+}
+
+// A write that fails (here a file-size limit, as a full disk) exits 2 with one line, where
+// HDF5 then crashed at exit (139); a closed pipe on stdout leaves no tmp file.
+TEST_F(CliBadInput, FailedWritesAndClosedPipesLeaveNothing) {
+  ASSERT_EQ(minv("generate --topology serial --n 200 --out s200.json").status, 0);
+  const std::string limited = "cd '" + dir_.string() +
+                              "' && bash -c 'trap \"\" XFSZ; ulimit -f 300; exec \"" MINV_CLI
+                              "\" solve --model s200.json --solver abi --out o.h5' 2> .stderr";
+  const int rc = std::system(limited.c_str());
+  EXPECT_TRUE(WIFEXITED(rc) && WEXITSTATUS(rc) == 2) << rc;
+  const std::string err = slurp(dir_ / ".stderr");
+  EXPECT_EQ(err.rfind("minv: error: HDF5: cannot write", 0), 0u) << err;
+  EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
+  EXPECT_FALSE(fs::exists(path("o.h5")));
+  EXPECT_FALSE(fs::exists(path("o.h5.tmp")));
+  const std::string piped = "cd '" + dir_.string() +
+                            "' && '" MINV_CLI
+                            "' solve --model s200.json --solver all --out p.h5 2>/dev/null | "
+                            "head -c 10 > /dev/null";
+  EXPECT_NE(std::system(piped.c_str()), -1);
+  EXPECT_FALSE(fs::exists(path("p.h5.tmp")));
+}
+
 // simulate: bad frames, steps, dt and threads, before any file (a sweep once left one with
 // provenance only; libgomp crashed at 65536 threads).
 TEST_F(CliBadInput, SimulateOptions) {
   expectFailure("simulate centipede --segments 2 --steps 3 --frames -1 --out out.h5",
                 "--frames must be at least 0, got -1");
   expectFailure("simulate centipede --segments 2 --steps 3 --dt inf --out out.h5",
-                "--dt must be a finite positive step (s), got inf");
+                "--dt must be a step in (0, 1] s, got inf");
+  expectFailure("simulate centipede --segments 1 --steps 1 --dt 1e200 --out out.h5",
+                "--dt must be a step in (0, 1] s, got 1e+200");
   expectFailure("simulate centipede --segments 1 --steps 2 --threads 65536 --out out.h5",
                 "--threads must be between 1 and 512, got 65536");
   const std::pair<const char*, const char*> sweep[] = {
       {"--steps 0", "--steps must be at least 1"},
-      {"--dt nan", "--dt must be a finite positive step (s), got nan"},
-      {"--dt -1", "--dt must be a finite positive step (s), got -1"},
+      {"--dt nan", "--dt must be a step in (0, 1] s, got nan"},
+      {"--dt -1", "--dt must be a step in (0, 1] s, got -1"},
+      {"--dt 2", "--dt must be a step in (0, 1] s, got 2"},
       {"--threads 65536", "--threads must be between 1 and 512, got 65536"},
       {"--threads 0", "--threads must be between 1 and 512, got 0"},
       {"--segments 5,100000000", "--segments must be between 1 and 10000, got 100000000"}};

@@ -294,6 +294,14 @@ TEST(Mujoco, MjcfFloatingBaseAndErrors) {
   ::testing::internal::CaptureStderr();
   EXPECT_ERROR(loadMjcf(file4.path, false), "joint axis is not finite");
   EXPECT_EQ(::testing::internal::GetCapturedStderr(), "");
+  // A NaN that MuJoCo reads as 0 (a body's position), with only a warning: refused.
+  const TempFile file5("minv_mujoco_test_nan_pos.xml", R"(<mujoco><worldbody><body name="a">
+      <inertial pos="0 0 0" mass="1" diaginertia="0.1 0.1 0.1"/><joint type="hinge"/>
+      <body name="b" pos="nan 0 0"><inertial pos="0 0 0" mass="1" diaginertia="0.1 0.1 0.1"/>
+      <joint type="hinge"/></body></body></worldbody></mujoco>)");
+  ::testing::internal::CaptureStderr();
+  EXPECT_ERROR(loadMjcf(file5.path, false), "the file contains a NaN");
+  EXPECT_EQ(::testing::internal::GetCapturedStderr(), "");
 }
 
 TEST(Mujoco, SupportsRefusesWhatMujocoRefuses) {

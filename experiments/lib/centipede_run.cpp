@@ -122,13 +122,13 @@ void checkPathThreads(const std::string& path, int threads) {
     throw std::invalid_argument("path mujoco-step runs MuJoCo 2.2's mj_step, which has one thread");
 }
 
-// --steps at least 1, --dt finite and positive (an infinite step only diverges).
+// --steps at least 1, --dt in (0, 1] s (a longer step of a walking robot only diverges).
 void checkStepping(int steps, double dt) {
   if (steps < 1)
     throw std::invalid_argument("--steps must be at least 1, got " + std::to_string(steps));
-  if (!(dt > 0) || !std::isfinite(dt)) {
+  if (!(dt > 0) || !(dt <= 1)) {
     char buf[80];
-    std::snprintf(buf, sizeof buf, "--dt must be a finite positive step (s), got %g", dt);
+    std::snprintf(buf, sizeof buf, "--dt must be a step in (0, 1] s, got %g", dt);
     throw std::invalid_argument(buf);
   }
 }
@@ -280,8 +280,8 @@ void CentipedeRun::steps(int count) {
       r_.max_pgs_iterations = std::max(r_.max_pgs_iterations, res->iterations);
       r_.unconverged_steps += res->converged ? 0 : 1;
     }
-    if (!sim_->v().allFinite())
-      throw std::runtime_error("the simulation diverged (non-finite velocity)");
+    if (!sim_->v().allFinite() || !sim_->q().allFinite())
+      throw std::runtime_error("the simulation diverged (non-finite velocity or position)");
     if (every_ > 0 && (k + 1) % every_ == 0) record((k + 1) / every_);
     if (progress_every_ > 0 && ((k + 1) % progress_every_ == 0 || k + 1 == o_.steps)) {
       const double wall =

@@ -12,6 +12,7 @@
 
 #include "core/model.hpp"
 #include "experiments/lib/h5writer.hpp"
+#include "generators/model_io.hpp"
 
 namespace minv {
 
@@ -222,6 +223,7 @@ bool endsWith(const std::string& s, const std::string& suffix) {
 }
 
 hid_t openReadOnly(const std::string& path) {
+  requireInputFile(path);
   silenceHdf5Errors();
   const hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
   if (f < 0) throw std::runtime_error("cannot open result file '" + path + "'");
@@ -280,15 +282,22 @@ void requireSameSettings(const std::string& path, const std::string& option,
     if (!present) continue;
     Hid obj(H5Oopen(file, object.c_str(), H5P_DEFAULT), H5Oclose);
     if (obj < 0) readFail("open " + object, path);
-    // Another experiment's file, said so first.
-    for (const SweepSetting& s : settings)
-      if (s.name == "experiment" && H5Aexists(obj, "experiment") > 0) {
+    // Another experiment's file, said so first; a file with contents but no experiment (a
+    // `minv solve` result, any other HDF5 file) is no sweep's
+    for (const SweepSetting& s : settings) {
+      if (s.name != "experiment") continue;
+      if (H5Aexists(obj, "experiment") > 0) {
         const std::string held = readAttribute(obj, s.name, path).text();
         if (held != s.text)
           throw std::invalid_argument(option + " '" + path + "' holds experiment '" + held +
                                       "', not '" + s.text +
                                       "': write to another file, or remove this one");
+      } else if (H5G_info_t info{}; H5Gget_info(obj, &info) < 0 || info.nlinks > 0) {
+        throw std::invalid_argument(option + " '" + path +
+                                    "' holds results that are not a sweep's (no experiment "
+                                    "attribute): write to another file, or remove this one");
       }
+    }
     const std::string differ = differingSettings(obj, settings, path, "this run: ");
     if (!differ.empty())
       throw std::invalid_argument(
@@ -306,6 +315,7 @@ int mergeResultFiles(const std::vector<std::string>& inputs, const std::string& 
   // of a sweep (the root's, which the merged file keeps from the first input) must agree.
   std::vector<SweepSetting> first;  // the first input's settings, as it holds them
   for (const std::string& in : inputs) {
+    requireInputFile(in);
     silenceHdf5Errors();
     Hid file(H5Fopen(in.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
     if (file < 0)

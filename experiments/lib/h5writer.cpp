@@ -11,6 +11,8 @@
 #include <system_error>
 #include <utility>
 
+#include "generators/model_io.hpp"
+
 namespace minv {
 
 namespace {
@@ -25,7 +27,8 @@ struct TmpSlot {
 TmpSlot tmpSlots[kTmpSlots];
 std::mutex tmpMutex;
 
-// SIGINT, SIGTERM, SIGHUP, SIGABRT: remove the live tmp files, then die of the signal as before.
+// SIGINT, SIGTERM, SIGHUP, SIGABRT, SIGPIPE (a closed pipe on stdout), SIGXFSZ (a file-size
+// limit): remove the live tmp files, then die of the signal as before.
 extern "C" void removeTmpFilesAndDie(int sig) {
   for (TmpSlot& slot : tmpSlots)
     if (slot.used.load(std::memory_order_acquire)) unlink(slot.path);
@@ -38,7 +41,7 @@ extern "C" void removeTmpFilesAndDie(int sig) {
 void installTmpCleanup() {
   static std::once_flag once;
   std::call_once(once, [] {
-    for (const int sig : {SIGINT, SIGTERM, SIGHUP, SIGABRT}) {
+    for (const int sig : {SIGINT, SIGTERM, SIGHUP, SIGABRT, SIGPIPE, SIGXFSZ}) {
       struct sigaction old {};
       if (sigaction(sig, nullptr, &old) != 0 || (old.sa_flags & SA_SIGINFO) ||
           old.sa_handler != SIG_DFL)
@@ -96,6 +99,13 @@ std::string hdf5Message() {
   };
   H5Ewalk2(H5E_DEFAULT, H5E_WALK_UPWARD, innermost, &msg);
   H5Eclear2(H5E_DEFAULT);
+  // A failed system call's description lists the buffer, offsets and time: its message alone
+  const std::string tag = "error message = '";
+  const std::size_t at = msg.find(tag);
+  if (at != std::string::npos) {
+    const std::size_t from = at + tag.size(), to = msg.find('\'', from);
+    if (to != std::string::npos) msg = msg.substr(from, to - from);
+  }
   return msg;
 }
 
@@ -143,7 +153,11 @@ hid_t utf8StringType() {
 
 }  // namespace
 
+// Before HDF5's first call: no close of the library at exit, where a file whose write failed
+// (a full disk) made HDF5 crash while closing it again; every file is closed explicitly.
 void silenceHdf5Errors() {
+  static std::once_flag once;
+  std::call_once(once, [] { H5dont_atexit(); });
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
 }
 
@@ -158,6 +172,7 @@ H5Writer::H5Writer(const std::string& path, bool append)
     : path_(path), file_path_(append ? path : path + ".tmp"), append_(append) {
   silenceHdf5Errors();
   if (path.empty()) throw std::runtime_error("HDF5: empty output file name");
+  requireOutputFile(path);
   // Strong close degree: closing the file closes anything still open in it.
   Hid fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
   if (!fapl.ok() || H5Pset_fclose_degree(fapl, H5F_CLOSE_STRONG) < 0)

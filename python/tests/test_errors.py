@@ -1,5 +1,7 @@
 """Errors: every bad input is a Python exception with the C++ (and `minv` command's) message,
 and the interpreter survives."""
+import os
+import stat
 import subprocess
 import sys
 import textwrap
@@ -111,6 +113,17 @@ def test_bad_generator_arguments():
         minv.random_configuration(minv.random_tree("serial", 3), 2**64)
     with pytest.raises(minv.ModelError):
         minv.centipede(0)
+    # The command's size limits hold here too; an int beyond C's is a ValueError naming it
+    # (pybind11's own int gave a TypeError listing the signatures).
+    with pytest.raises(minv.ModelError, match="at most 1000000, got 1000001"):
+        minv.random_tree("serial", 1000001)
+    with pytest.raises(minv.ModelError, match="between 1 and 10000, got 10001"):
+        minv.centipede(10001)
+    for call in (lambda: minv.random_tree("serial", 2**70), lambda: minv.centipede(-2**40),
+                 lambda: minv.make_solver("abi").set_threads(2**31)):
+        with pytest.raises(ValueError, match="out of range: an int argument lies in"):
+            call()
+    assert minv.random_tree("serial", np.int64(3)).nv == 3  # numpy's ints are ints
 
 
 def test_life_cycle_order():
@@ -164,6 +177,17 @@ def test_bad_right_hand_sides():
 
 def test_files_and_sizes_that_are_not_what_they_should_be(tmp_path):
     import h5py
+    # A path that is not UTF-8 keeps its message (it was an empty ModelError), bytes escaped.
+    with pytest.raises(minv.ModelError, match=r"cannot open '.*\\xffx\.json'"):
+        minv.load_model(str(tmp_path) + "/\udcffx.json")
+    # A FIFO is neither read (the call blocked) nor replaced by an output.
+    fifo = tmp_path / "fifo.json"
+    os.mkfifo(fifo)
+    with pytest.raises(minv.ModelError, match="not a regular file"):
+        minv.load_model(str(fifo))
+    with pytest.raises(minv.ModelError, match="exists and is not a regular file"):
+        minv.save_model(minv.random_tree("serial", 2), str(fifo))
+    assert stat.S_ISFIFO(os.stat(fifo).st_mode)
     other = tmp_path / "other.h5"
     with h5py.File(other, "w") as f:
         f.attrs["experiment"] = "flops"
