@@ -248,6 +248,10 @@ Model Model::create(std::vector<int> parent, std::vector<Joint> joints, std::vec
   for (int i = 0; i < nb; ++i) {
     if (!validUtf8(bodies[i].name) || !validUtf8(joints[i].name))
       throw ModelError("body " + std::to_string(i) + ": its body or joint name is not valid UTF-8");
+    // (a NUL cut the name short in a URDF written from the model, which then did not read back)
+    if (bodies[i].name.find('\0') != std::string::npos ||
+        joints[i].name.find('\0') != std::string::npos)
+      throw ModelError("body " + std::to_string(i) + ": its body or joint name contains a NUL");
     const std::string& b = bodies[i].name;
     if (!b.empty() && !body_at.emplace(b, i).second)
       throw ModelError(where(i, b) + ": the body name '" + b + "' is already used by body " +

@@ -99,6 +99,9 @@ std::string readFile(const std::string& path) {
   s << f.rdbuf();
   if (f.bad()) throw ModelError("cannot read '" + path + "': " + std::strerror(errno));
   if (s.str().empty()) throw ModelError("'" + path + "': file is empty");
+  // (a model file is text: the parsers stopped at a NUL and ignored what followed it)
+  if (s.str().find('\0') != std::string::npos)
+    throw ModelError("'" + path + "': not a text file (it contains a NUL byte)");
   return s.str();
 }
 

@@ -384,6 +384,17 @@ TEST_F(CliBadInput, MalformedJson) {
   expectFailure("solve --model bad.json --out out.h5", "invalid JSON");
 }
 
+// A valid model followed by a NUL and garbage was read as the valid model: the parsers stopped
+// at the NUL.
+TEST_F(CliBadInput, NulInAModelFile) {
+  ASSERT_EQ(minv("generate --topology serial --n 3 --out good.json").status, 0);
+  std::ofstream(dir_ / "good.json", std::ios::app | std::ios::binary)
+      << std::string(1, '\0') << "garbage{{{";
+  expectFailure("solve --model good.json --out out.h5", "contains a NUL byte");
+  // and an explicit empty --out is no file (simulate centipede's --out is optional)
+  expectFailure("simulate centipede --segments 1 --steps 1 --out ''", "--out names no file");
+}
+
 TEST_F(CliBadInput, MalformedUrdf) {
   write("bad.urdf", "<robot name=\"r\"><link name=\"a\"></robot");
   expectFailure("solve --model bad.urdf --out out.h5", "bad.urdf");

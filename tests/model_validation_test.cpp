@@ -158,6 +158,10 @@ TEST(ModelValidation, NamesAreUtf8) {
     c.bodies[1].name = bad;
     EXPECT_NE(c.error().find("not valid UTF-8"), std::string::npos) << c.error();
   }
+  // nor a NUL (a URDF written from the model cut the name there and did not read back)
+  Chain nul;
+  nul.joints[1].name = std::string("a\0b", 3);
+  EXPECT_NE(nul.error().find("contains a NUL"), std::string::npos) << nul.error();
   Chain ok;
   ok.bodies[1].name = "bras_épaule";
   ok.joints[2].name = "θ₂";
