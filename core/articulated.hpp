@@ -192,7 +192,7 @@ MINV_INLINE void articulatedStep(std::integral_constant<int, K>, const Kinematic
 // Up a run of one-DOF links from the one-DOF body i (its parent i − 1 one-DOF), whose IA (in
 // columns), U, D⁻¹ and U D⁻¹ are done: for each parent j = i − 1, i − 2, … while the run goes
 // on, with B = I_j (+ a branch point's gathered terms) + IA_{j+1},
-//   q = S_jᵀ U_{j+1},  D_j = S_jᵀ (B S_j) − q² D_{j+1}⁻¹,  U_j = B S_j − U_{j+1} D_{j+1}⁻¹ q,
+//   q = S_jᵀ U_{j+1},  D_j = S_jᵀ (B S_j) − q (q D_{j+1}⁻¹),  U_j = B S_j − U_{j+1} D_{j+1}⁻¹ q,
 //   IA_j = B − U_{j+1} D_{j+1}⁻¹ U_{j+1}ᵀ,  c_{j+1} = −q D_{j+1}⁻¹,
 // the same quantities as U_j = IA_j S_j and D_j = S_jᵀ IA_j S_j regrouped so that D_j does not
 // wait for IA_j: from one body's D⁻¹ to the next a multiply-add and a division wait, where IA_j

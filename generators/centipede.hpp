@@ -33,7 +33,8 @@ enum class SegmentJoint { Yaw, Spherical };
 SegmentJoint segmentJointFromName(const std::string& name);  // "yaw" | "spherical", else ModelError
 const char* segmentJointName(SegmentJoint j);
 
-// The most segments a centipede may have (80 003 DOFs): far beyond any research use.
+// The most segments a centipede may have (90 005 DOFs with yaw joints, 110 003 with spherical
+// ones): far beyond any research use.
 inline constexpr int kMaxCentipedeSegments = 10000;
 
 struct CentipedeOptions {

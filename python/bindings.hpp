@@ -61,6 +61,9 @@ struct type_caster<minv::python::Int> {
     if (!src || PyFloat_Check(src.ptr())) return false;
     const object index = reinterpret_steal<object>(PyNumber_Index(src.ptr()));
     if (!index) {
+      // not an integer: the next overload, or pybind11's TypeError; anything else (an
+      // interrupt inside __index__) as it was raised
+      if (!PyErr_ExceptionMatches(PyExc_TypeError)) throw error_already_set();
       PyErr_Clear();
       return false;
     }

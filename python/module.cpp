@@ -13,6 +13,7 @@
 
 #include "bindings.hpp"
 #include "core/model.hpp"
+#include "experiments/lib/h5writer.hpp"
 #include "python_solver.hpp"
 
 namespace py = pybind11;
@@ -40,7 +41,12 @@ PYBIND11_MODULE(_minv, m) {
 
   // Exceptions: ModelError is a ValueError; a Python interrupt travels through C++ as itself.
   static py::exception<minv::ModelError> model_error(m, "ModelError", PyExc_ValueError);
-  py::register_exception_translator([](std::exception_ptr p) {
+  // HDF5 told, before its first call here, not to close itself at exit (where a file whose
+  // write failed made it crash): experiments/lib/h5writer.cpp. Where h5py started HDF5 before
+  // `import minv`, HDF5 no longer takes it, and such a crash at exit remains possible.
+  minv::silenceHdf5Errors();
+  // This module's exceptions only (a local translator: another module's stay its own).
+  py::register_local_exception_translator([](std::exception_ptr p) {
     try {
       if (p) std::rethrow_exception(p);
     } catch (const minv::python::PythonInterrupt& e) {

@@ -282,8 +282,12 @@ void requireSameSettings(const std::string& path, const std::string& option,
     if (!present) continue;
     Hid obj(H5Oopen(file, object.c_str(), H5P_DEFAULT), H5Oclose);
     if (obj < 0) readFail("open " + object, path);
-    // Another experiment's file, said so first; a file with contents but no experiment (a
-    // `minv solve` result, any other HDF5 file) is no sweep's
+    // Another experiment's file, said so first; a file with contents but neither an experiment
+    // nor any other of the sweep's settings (a `minv solve` result, any other HDF5 file) is no
+    // sweep's (centipede sweeps before 1931282 held `rounds` but no experiment)
+    const bool has_setting = std::any_of(settings.begin(), settings.end(), [&](const auto& s) {
+      return H5Aexists(obj, s.name.c_str()) > 0;
+    });
     for (const SweepSetting& s : settings) {
       if (s.name != "experiment") continue;
       if (H5Aexists(obj, "experiment") > 0) {
@@ -292,7 +296,8 @@ void requireSameSettings(const std::string& path, const std::string& option,
           throw std::invalid_argument(option + " '" + path + "' holds experiment '" + held +
                                       "', not '" + s.text +
                                       "': write to another file, or remove this one");
-      } else if (H5G_info_t info{}; H5Gget_info(obj, &info) < 0 || info.nlinks > 0) {
+      } else if (H5G_info_t info{};
+                 !has_setting && (H5Gget_info(obj, &info) < 0 || info.nlinks > 0)) {
         throw std::invalid_argument(option + " '" + path +
                                     "' holds results that are not a sweep's (no experiment "
                                     "attribute): write to another file, or remove this one");

@@ -36,7 +36,8 @@
 
 namespace minv {
 
-// Switch off HDF5's automatic error-stack printing (process-wide; idempotent).
+// Switch off HDF5's automatic error-stack printing and, when it comes before HDF5's first call
+// in the process, HDF5's close at exit (process-wide; idempotent).
 void silenceHdf5Errors();
 
 class H5Writer {

@@ -175,6 +175,15 @@ def test_bad_right_hand_sides():
         solver.solve(np.full(4, 1e308))
 
 
+class _Unused:
+    """A solver that compare refuses to run (its output is not a regular file)."""
+
+    def prepare(self, model):
+        raise AssertionError("not to be called")
+
+    configure = inverse = solve = prepare
+
+
 def test_files_and_sizes_that_are_not_what_they_should_be(tmp_path):
     import h5py
     # A path that is not UTF-8 keeps its message (it was an empty ModelError), bytes escaped.
@@ -187,7 +196,11 @@ def test_files_and_sizes_that_are_not_what_they_should_be(tmp_path):
         minv.load_model(str(fifo))
     with pytest.raises(minv.ModelError, match="exists and is not a regular file"):
         minv.save_model(minv.random_tree("serial", 2), str(fifo))
-    assert stat.S_ISFIFO(os.stat(fifo).st_mode)
+    fifo_h5 = tmp_path / "fifo.h5"
+    os.mkfifo(fifo_h5)
+    with pytest.raises(minv.ModelError, match="exists and is not a regular file"):
+        minv.compare(_Unused, sizes=(8,), out=str(fifo_h5))
+    assert stat.S_ISFIFO(os.stat(fifo).st_mode) and stat.S_ISFIFO(os.stat(fifo_h5).st_mode)
     other = tmp_path / "other.h5"
     with h5py.File(other, "w") as f:
         f.attrs["experiment"] = "flops"
