@@ -170,6 +170,15 @@ void checkBody(int i, const Body& b) {
                      "least " + formatNumber(kMinInertiaRatio) + "·m|c|²");
 }
 
+}  // namespace
+
+double smallestPrincipalMoment(const Body& b) {
+  const Eigen::Matrix3d J = 0.5 * (b.inertia + b.inertia.transpose());
+  return Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(J, Eigen::EigenvaluesOnly).eigenvalues()(0);
+}
+
+namespace {
+
 void checkJoint(int i, Joint& j, int parent) {
   const std::string at = "joint of " + where(i, j.name);
   if (j.type == JointType::Revolute || j.type == JointType::Prismatic) {

@@ -76,6 +76,10 @@ struct Body {
   Eigen::Matrix3d inertia = Eigen::Matrix3d::Identity();  // about the com, body axes
 };
 
+// The smallest principal moment of a body's rotational inertia (of its symmetric part): what a
+// peer that refuses small inertias compares.
+double smallestPrincipalMoment(const Body& b);
+
 // One body from links joined rigidly (URDF fixed joints, MJCF welded bodies), each given by its
 // mass, centre of mass and inertia about it in the body's frame: total mass, mass-weighted
 // centre, Σ Ī_k + m_k (|d_k|² 1 − d_k d_kᵀ) with d_k = c_k − c (parallel-axis theorem, about

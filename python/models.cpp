@@ -115,6 +115,10 @@ problem.)doc");
       },
       py::arg("model"), py::arg("path"),
       "Writes a model file by extension (.json or .urdf), atomically.");
+  // (for minv.compare, which renames its sweep over its output itself)
+  m.def(
+      "_require_output_file",
+      [](const std::filesystem::path& path) { requireOutputFile(path.string()); }, py::arg("path"));
 
   // Generators.
   m.def(

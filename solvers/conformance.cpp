@@ -26,7 +26,8 @@ double rel(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
   return (a - b).stableNorm() / std::max(b.stableNorm(), 1e-300);
 }
 
-// The case's trees side by side, each body's parent renumbered (roots stay −1).
+// The case's trees side by side, each body's parent renumbered (roots stay −1), masses and
+// inertias times the case's scale.
 Model forest(const ConformanceCase& c) {
   std::vector<int> parent;
   std::vector<Joint> joints;
@@ -42,26 +43,15 @@ Model forest(const ConformanceCase& c) {
       joints.back().name += "_t" + std::to_string(k);
       bodies.push_back(t.body(i));
       bodies.back().name += "_t" + std::to_string(k);
+      bodies.back().mass *= c.mass_scale;
+      bodies.back().inertia *= c.mass_scale;
     }
   }
   return Model::create(std::move(parent), std::move(joints), std::move(bodies));
 }
 
 Model buildModel(const ConformanceCase& c) {
-  Model m = c.beside.empty() ? randomTree(c.options) : forest(c);
-  if (c.mass_scale != 1) {
-    std::vector<int> parent;
-    std::vector<Joint> joints;
-    std::vector<Body> bodies;
-    for (int i = 0; i < m.nb(); ++i) {
-      parent.push_back(m.parent(i));
-      joints.push_back(m.joint(i));
-      bodies.push_back(m.body(i));
-      bodies.back().mass *= c.mass_scale;
-      bodies.back().inertia *= c.mass_scale;
-    }
-    m = Model::create(std::move(parent), std::move(joints), std::move(bodies));
-  }
+  Model m = c.beside.empty() && c.mass_scale == 1 ? randomTree(c.options) : forest(c);
   if (!c.via_urdf) return m;
   std::ostringstream xml;
   writeUrdf(m, xml, c.name);

@@ -76,10 +76,7 @@ MujocoSolver::~MujocoSolver() = default;
 bool MujocoSolver::supports(const Model& model, std::string* why) const {
   for (int i = 0; i < model.nb(); ++i) {
     const Body& b = model.body(i);
-    const double smallest = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(
-                                0.5 * (b.inertia + b.inertia.transpose()), Eigen::EigenvaluesOnly)
-                                .eigenvalues()(0);
-    if (b.mass < mjMINVAL || smallest < mjMINVAL) {
+    if (b.mass < mjMINVAL || smallestPrincipalMoment(b) < mjMINVAL) {
       if (why)
         *why = "mujoco: body " + std::to_string(i) +
                " has a mass or principal moment of inertia below MuJoCo's mjMINVAL (1e-15), "

@@ -276,9 +276,7 @@ def compare(solver, sizes=(8, 16, 32, 64), topologies=("serial", "branched"),
     if not os.path.basename(path) or os.path.isdir(path):
         raise IsADirectoryError(f"out must name a file, and {path!r} is a directory")
     # (the sweep's file is renamed over out: a FIFO or a device such as /dev/null would go)
-    if os.path.exists(path) and not os.path.isfile(path):
-        raise ModelError(f"output {path!r} exists and is not a regular file (a device, FIFO or "
-                         f"socket): writing would replace it; name a regular file")
+    _minv._require_output_file(path)
     # The folders this call creates (deepest first), removed again if still empty when it fails;
     # the nearest existing one must be a folder.
     folder = os.path.dirname(os.path.abspath(path))
