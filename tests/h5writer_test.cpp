@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 #include <stdlib.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -260,7 +261,7 @@ TEST(H5Writer, AppendModeKeepsEarlierPointsAndResumes) {
   const std::string path = dir / "sweep.h5";
   {
     H5Writer w = H5Writer::append(path);  // creates the file
-    EXPECT_EQ(w.writingPath(), path);
+    EXPECT_EQ(w.writingPath(), path + ".tmp");
     w.setAttribute("/", "sweep", "test");
     const std::string g = w.beginPoint("points/n10");
     w.writeVector(g + "/t", Eigen::VectorXd::Constant(2, 10.0));
@@ -279,6 +280,7 @@ TEST(H5Writer, AppendModeKeepsEarlierPointsAndResumes) {
     const std::string h = w.beginPoint("points/n30");
     w.writeVector(h + "/t", Eigen::VectorXd::Constant(2, -1.0));
   }
+  EXPECT_FALSE(fs::exists(path + ".tmp"));  // the working copy goes with the writer
   {
     H5Writer w = H5Writer::append(path);
     EXPECT_FALSE(w.hasGroup("points/n30"));  // resume redoes it
@@ -324,6 +326,65 @@ TEST(H5Writer, AppendModeSurvivesAKilledProcess) {
   H5Writer w = H5Writer::append(path);
   EXPECT_TRUE(w.hasGroup("p0"));
   EXPECT_FALSE(w.hasGroup("p1"));
+}
+
+// A process killed, or a write that fails (a file-size limit), in the middle of a point leaves
+// the file as the last finished point left it: readable, every finished point in it, nothing
+// of the unfinished one; the next writer goes on from there.
+TEST(H5Writer, AppendModeKeepsTheFileWholeWhenAPointFails) {
+  for (const bool kill : {true, false}) {
+    H5Dir dir;
+    const std::string path = dir / "sweep.h5";
+    {
+      H5Writer w = H5Writer::append(path);
+      const std::string g = w.beginPoint("p0");
+      w.writeMatrix(g + "/x", Eigen::MatrixXd::Identity(3, 3));
+      w.endPoint("p0");
+    }
+    const auto size = fs::file_size(path);
+    const pid_t pid = fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      // A limit that the next point's 2 MB cannot fit under; SIGXFSZ ignored, so the write
+      // fails with EFBIG
+      const struct rlimit limit { size + 65536, size + 65536 };
+      if (!kill && (setrlimit(RLIMIT_FSIZE, &limit) != 0 || signal(SIGXFSZ, SIG_IGN) == SIG_ERR))
+        _exit(4);
+      try {
+        H5Writer w = H5Writer::append(path);
+        const std::string g = w.beginPoint("p1");
+        w.writeMatrix(g + "/x", Eigen::MatrixXd::Constant(512, 512, 1.0));
+        if (kill) raise(SIGKILL);
+        w.endPoint("p1");
+      } catch (const std::exception&) {
+        _exit(kill ? 5 : 0);  // the write failed, as it should
+      }
+      _exit(3);
+    }
+    int status = 0;
+    waitpid(pid, &status, 0);
+    if (kill) {
+      ASSERT_TRUE(WIFSIGNALED(status)) << status;
+    } else {
+      ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << status;
+      EXPECT_FALSE(fs::exists(path + ".tmp"));
+    }
+    {
+      File f(path);
+      EXPECT_EQ(readData<double>(f, "p0/x", H5T_NATIVE_DOUBLE).size(), 9u);
+    }
+    H5Writer w = H5Writer::append(path);
+    EXPECT_TRUE(w.hasGroup("p0"));
+    EXPECT_FALSE(w.hasGroup("p1.partial"));
+    EXPECT_FALSE(w.hasGroup("p1"));
+    const std::string g = w.beginPoint("p1");
+    w.writeMatrix(g + "/x", Eigen::MatrixXd::Identity(2, 2));
+    w.endPoint("p1");
+    w.commit();
+    EXPECT_FALSE(fs::exists(path + ".tmp"));
+    File f(path);
+    EXPECT_EQ(readData<double>(f, "p1/x", H5T_NATIVE_DOUBLE).size(), 4u);
+  }
 }
 
 // A create-mode run killed by SIGTERM, SIGINT, SIGHUP or aborted (no destructors) leaves no tmp

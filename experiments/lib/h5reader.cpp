@@ -12,6 +12,7 @@
 
 #include "core/model.hpp"
 #include "experiments/lib/h5writer.hpp"
+#include "experiments/lib/isolate.hpp"
 #include "generators/model_io.hpp"
 
 namespace minv {
@@ -225,6 +226,7 @@ bool endsWith(const std::string& s, const std::string& suffix) {
 hid_t openReadOnly(const std::string& path) {
   requireInputFile(path);
   silenceHdf5Errors();
+  noteReading(path);
   const hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
   if (f < 0) throw std::runtime_error("cannot open result file '" + path + "'");
   return f;
@@ -259,13 +261,9 @@ std::string differingSettings(hid_t obj, const std::vector<SweepSetting>& settin
   return differ;
 }
 
-}  // namespace
-
-SweepSetting::SweepSetting(std::string n, double v) : name(std::move(n)), text(formatNumber(v)) {}
-
-void requireSameSettings(const std::string& path, const std::string& option,
-                         const std::vector<SweepSetting>& settings,
-                         const std::vector<std::string>& objects) {
+void sameSettingsHere(const std::string& path, const std::string& option,
+                      const std::vector<SweepSetting>& settings,
+                      const std::vector<std::string>& objects) {
   silenceHdf5Errors();
   // A new file, or not HDF5 (H5Writer::append says so)
   std::error_code ec;
@@ -313,8 +311,7 @@ void requireSameSettings(const std::string& path, const std::string& option,
   }
 }
 
-int mergeResultFiles(const std::vector<std::string>& inputs, const std::string& out) {
-  if (inputs.empty()) throw std::invalid_argument("merge needs at least one input file");
+int mergeHere(const std::vector<std::string>& inputs, const std::string& out) {
   // Only timing sweeps (shards or merged files), all before the output is begun: any other
   // file would merge to 0 points. Their points must have been measured alike: the settings
   // of a sweep (the root's, which the merged file keeps from the first input) must agree.
@@ -322,6 +319,7 @@ int mergeResultFiles(const std::vector<std::string>& inputs, const std::string& 
   for (const std::string& in : inputs) {
     requireInputFile(in);
     silenceHdf5Errors();
+    noteReading(in);
     Hid file(H5Fopen(in.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
     if (file < 0)
       throw std::runtime_error("input file '" + in +
@@ -371,7 +369,7 @@ int mergeResultFiles(const std::vector<std::string>& inputs, const std::string& 
   return static_cast<int>(seen.size());
 }
 
-std::map<std::string, PointRecord> readPoints(const std::string& path) {
+std::map<std::string, PointRecord> pointsHere(const std::string& path) {
   std::map<std::string, PointRecord> out;
   Hid file(openReadOnly(path), H5Fclose);
   requireTimingSweep(file, "'" + path + "'", "");
@@ -394,6 +392,37 @@ std::map<std::string, PointRecord> readPoints(const std::string& path) {
     out[name] = std::move(rec);
   }
   return out;
+}
+
+}  // namespace
+
+// Each reads in a child process first (experiments/lib/isolate.hpp): a damaged file that
+// crashes HDF5 there is an exception here. Merge runs whole in the child, which writes `out`.
+SweepSetting::SweepSetting(std::string n, double v) : name(std::move(n)), text(formatNumber(v)) {}
+
+void requireSameSettings(const std::string& path, const std::string& option,
+                         const std::vector<SweepSetting>& settings,
+                         const std::vector<std::string>& objects) {
+  inChildProcess([&] {
+    sameSettingsHere(path, option, settings, objects);
+    return std::string();
+  });
+  sameSettingsHere(path, option, settings, objects);
+}
+
+int mergeResultFiles(const std::vector<std::string>& inputs, const std::string& out) {
+  if (inputs.empty()) throw std::invalid_argument("merge needs at least one input file");
+  const std::string points =
+      inChildProcess([&] { return std::to_string(mergeHere(inputs, out)); }, {out + ".tmp"});
+  return std::stoi(points);
+}
+
+std::map<std::string, PointRecord> readPoints(const std::string& path) {
+  inChildProcess([&] {
+    pointsHere(path);
+    return std::string();
+  });
+  return pointsHere(path);
 }
 
 }  // namespace minv

@@ -1,5 +1,7 @@
 // Result files read back: merging shards into one file and reading the points of a timing
-// sweep (tests, checks, `minv merge`). The writing side is h5writer.hpp.
+// sweep (tests, checks, `minv merge`). The writing side is h5writer.hpp. Each function below
+// reads in a child process first, so that a damaged file which crashes HDF5 is an exception
+// here, not the end of the process (experiments/lib/isolate.hpp); merge runs whole there.
 #pragma once
 
 #include <cstdint>

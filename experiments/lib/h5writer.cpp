@@ -11,13 +11,14 @@
 #include <system_error>
 #include <utility>
 
+#include "experiments/lib/isolate.hpp"
 #include "generators/model_io.hpp"
 
 namespace minv {
 
 namespace {
 
-// The tmp files of the create-mode writers alive, for the signal handler below: fixed slots of
+// The tmp files of the writers alive, for the signal handler below: fixed slots of
 // fixed buffers, since a handler may only call async-signal-safe functions (unlink, raise).
 constexpr int kTmpSlots = 32;
 struct TmpSlot {
@@ -161,7 +162,7 @@ void silenceHdf5Errors() {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
 }
 
-// Create mode writes to the tmp file; append mode opens or creates the file itself.
+// Both modes write to the tmp file: create mode a new one, append mode a copy of the file.
 H5Writer::H5Writer(const std::string& path) : H5Writer(path, false) {}
 
 H5Writer H5Writer::append(const std::string& path) {
@@ -169,27 +170,67 @@ H5Writer H5Writer::append(const std::string& path) {
 }
 
 H5Writer::H5Writer(const std::string& path, bool append)
-    : path_(path), file_path_(append ? path : path + ".tmp"), append_(append) {
+    : path_(path), file_path_(path + ".tmp"), append_(append) {
   silenceHdf5Errors();
   if (path.empty()) throw std::runtime_error("HDF5: empty output file name");
   requireOutputFile(path);
-  // Strong close degree: closing the file closes anything still open in it.
-  Hid fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
-  if (!fapl.ok() || H5Pset_fclose_degree(fapl, H5F_CLOSE_STRONG) < 0)
-    fail("set up file access for", file_path_);
+  // An existing file to append to: read whole in a child process first (a damaged one must not
+  // crash this one), and an HDF5 file
   std::error_code ec;
-  if (append && std::filesystem::exists(path, ec)) {
-    file_ = H5Fopen(file_path_.c_str(), H5F_ACC_RDWR, fapl);
-    if (file_ < 0) fail("open for appending", file_path_);
-  } else {
-    // Create mode: the tmp file is known to the signal handler before it exists.
-    if (!append) tmp_slot_ = registerTmp(std::filesystem::absolute(file_path_, ec).string());
-    file_ = H5Fcreate(file_path_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
-    if (file_ < 0) {
-      unregisterTmp(std::exchange(tmp_slot_, -1));
-      fail("create", file_path_);
+  const bool existing = append && std::filesystem::exists(path, ec);
+  if (existing) {
+    requireUndamaged(path);
+    if (H5Fis_hdf5(path.c_str()) <= 0) {
+      H5Eclear2(H5E_DEFAULT);
+      fail("open for appending (not an HDF5 file)", path);
     }
   }
+  // The tmp file, known to the signal handler before it exists: the file's copy, or a new file
+  tmp_slot_ = registerTmp(std::filesystem::absolute(file_path_, ec).string());
+  std::error_code copying;
+  if (existing) {
+    std::filesystem::copy_file(path, file_path_, std::filesystem::copy_options::overwrite_existing,
+                               copying);
+    if (!copying) file_ = openWorkingCopy();
+  } else {
+    // Strong close degree: closing the file closes anything still open in it.
+    Hid fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
+    if (fapl.ok() && H5Pset_fclose_degree(fapl, H5F_CLOSE_STRONG) >= 0)
+      file_ = H5Fcreate(file_path_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
+  }
+  if (file_ < 0) {
+    if (existing) std::filesystem::remove(file_path_, ec);
+    unregisterTmp(std::exchange(tmp_slot_, -1));
+    if (copying)
+      throw std::runtime_error("cannot copy " + path + " to " + file_path_ + ": " +
+                               copying.message());
+    fail(existing ? "open for appending" : "create", existing ? path : file_path_);
+  }
+}
+
+// The tmp file opened read-write (strong close degree: closing the file closes anything still
+// open in it); negative on failure.
+hid_t H5Writer::openWorkingCopy() const {
+  Hid fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
+  if (!fapl.ok() || H5Pset_fclose_degree(fapl, H5F_CLOSE_STRONG) < 0) return -1;
+  return H5Fopen(file_path_.c_str(), H5F_ACC_RDWR, fapl);
+}
+
+// Append mode: close the working copy and rename it to path(); to go on, copy it back and
+// open that.
+void H5Writer::publish(bool reopen) {
+  if (H5Fclose(std::exchange(file_, -1)) < 0) fail("close", file_path_);
+  std::error_code ec;
+  std::filesystem::rename(file_path_, path_, ec);
+  if (ec)
+    throw std::runtime_error("cannot rename " + file_path_ + " to " + path_ + ": " + ec.message());
+  if (!reopen) return;
+  std::filesystem::copy_file(path_, file_path_, std::filesystem::copy_options::overwrite_existing,
+                             ec);
+  if (ec)
+    throw std::runtime_error("cannot copy " + path_ + " to " + file_path_ + ": " + ec.message());
+  file_ = openWorkingCopy();
+  if (file_ < 0) fail("open again for appending", file_path_);
 }
 
 H5Writer::H5Writer(H5Writer&& other) noexcept
@@ -202,10 +243,10 @@ H5Writer::H5Writer(H5Writer&& other) noexcept
   other.committed_ = true;  // the moved-from writer owns no file and must not remove one
 }
 
-// Without commit: close, and in create mode delete the tmp file.
+// Without commit: close, and delete the tmp file.
 H5Writer::~H5Writer() {
   if (file_ >= 0) H5Fclose(file_);
-  if (!append_ && !committed_ && !file_path_.empty()) {
+  if (!committed_ && !file_path_.empty()) {
     std::error_code ec;
     std::filesystem::remove(file_path_, ec);
   }
@@ -220,9 +261,10 @@ void H5Writer::requireOpen(const char* what) const {
 
 void H5Writer::fail(const std::string& what, const std::string& object) const {
   const std::string msg = hdf5Message();
-  throw std::runtime_error("HDF5: cannot " + what + " '" + object + "'" +
-                           (object == file_path_ ? "" : " in " + file_path_) +
-                           (msg.empty() ? "" : ": " + msg));
+  throw std::runtime_error(
+      "HDF5: cannot " + what + " '" + object + "'" +
+      (object == file_path_ || object == path_ ? "" : " in " + (append_ ? path_ : file_path_)) +
+      (msg.empty() ? "" : ": " + msg));
 }
 
 // Groups: walk down the path, creating what is missing.
@@ -357,7 +399,8 @@ std::string H5Writer::beginPoint(const std::string& name) {
   return staging;
 }
 
-// Publish the staged point under its name (replacing an older one), then flush.
+// Publish the staged point under its name (replacing an older one), then flush (in append mode,
+// to path()).
 void H5Writer::endPoint(const std::string& name) {
   requireOpen("finish a point");
   const std::string abs = absolute(name), staging = abs + ".partial";
@@ -378,18 +421,21 @@ void H5Writer::remove(const std::string& object) {
 
 void H5Writer::flush() {
   requireOpen("flush");
+  if (append_) return publish(true);
   if (H5Fflush(file_, H5F_SCOPE_GLOBAL) < 0) fail("flush", file_path_);
 }
 
 // Close (which writes everything), then move the tmp file into place.
 void H5Writer::commit() {
   requireOpen("commit");
-  const herr_t closed = H5Fclose(std::exchange(file_, -1));
-  if (closed < 0) fail("close", file_path_);
   if (append_) {
+    publish(false);
     committed_ = true;
+    unregisterTmp(std::exchange(tmp_slot_, -1));
     return;
   }
+  const herr_t closed = H5Fclose(std::exchange(file_, -1));
+  if (closed < 0) fail("close", file_path_);
   std::error_code ec;
   std::filesystem::rename(file_path_, path_, ec);
   if (ec)

@@ -8,14 +8,19 @@
 //     first writer installs a handler for each of those signals that still has the default
 //     action, which removes the tmp files of the writers alive and then dies of the signal as
 //     before (Python keeps its own SIGINT).
-//   * H5Writer::append(path) opens `path` read-write, or creates it, and writes in place, for
-//     sweeps that write each point when it finishes and resume after a kill: write a point
-//     between beginPoint(name) and endPoint(name). Its data go to a staging group
-//     "<name>.partial", which endPoint() renames to <name> and then flushes the file
-//     (H5Fflush), so a finished point survives a killed process and hasGroup(name) is true
-//     only for finished points. beginPoint() drops a staging group a killed run left behind.
-//     (HDF5 1.10 without SWMR: a kill in the middle of a point may still leave the file
-//     unreadable; the flushed state after each point is what this mode promises.)
+//   * H5Writer::append(path) adds to `path` (or creates it), for sweeps that write each point
+//     when it finishes and resume after a kill: write a point between beginPoint(name) and
+//     endPoint(name). The writer works on a copy, `path + ".tmp"`; flush() (which endPoint()
+//     calls) publishes it: closes the copy, renames it to `path`, and copies it back to go on.
+//     So `path` is always a whole file as the last publication left it: a kill, a full disk or
+//     a crash in the middle of a point loses that point only (a kill in place could leave an
+//     HDF5 file unreadable, and every point in it lost), and the tmp copy is removed as in
+//     create mode. A point's data go to a staging group "<name>.partial", which endPoint()
+//     renames to <name>, so hasGroup(name) is true only for finished points; beginPoint()
+//     drops a staging group that an older, in-place run left behind. An existing `path` is
+//     first read whole in a child process (isolate.hpp: requireUndamaged), so that a damaged
+//     file is an error, not a crash. One writer per file: two processes appending to one file
+//     at once overwrite each other's points.
 //   * Object paths are "/"-separated and relative to the root ("a/b" = "/a/b"); writing a
 //     dataset creates the missing groups on its path.
 //   * Layout: a matrix is stored row-major as [rows, cols], so h5py reads M[i, j] = M(i, j);
@@ -44,17 +49,18 @@ class H5Writer {
  public:
   // Create mode: write to path + ".tmp", renamed to path by commit().
   explicit H5Writer(const std::string& path);
-  // Append mode: open path (or create it) and write in place.
+  // Append mode: add to path (or create it), through a copy published by flush().
   static H5Writer append(const std::string& path);
 
   H5Writer(H5Writer&& other) noexcept;
   H5Writer& operator=(H5Writer&&) = delete;
   H5Writer(const H5Writer&) = delete;
   H5Writer& operator=(const H5Writer&) = delete;
-  // Not committed: closes and removes the tmp file (create mode) or just closes (append mode).
+  // Not committed: closes and removes the tmp file (in append mode path keeps what the last
+  // publication put there).
   ~H5Writer();
 
-  // The final path, and the path actually being written (path + ".tmp" in create mode).
+  // The final path, and the path actually being written (path + ".tmp").
   const std::string& path() const { return path_; }
   const std::string& writingPath() const { return file_path_; }
   bool appendMode() const { return append_; }
@@ -93,14 +99,16 @@ class H5Writer {
   // Delete a link (group or dataset); absent is fine.
   void remove(const std::string& object);
 
-  // Push everything written so far to disk.
+  // Push everything written so far to disk; in append mode, publish it to path().
   void flush();
-  // Close the file; in create mode rename the tmp file to path(). The writer is then spent.
+  // Close the file and rename the tmp file to path(). The writer is then spent.
   void commit();
 
  private:
   H5Writer(const std::string& path, bool append);
   void requireOpen(const char* what) const;
+  hid_t openWorkingCopy() const;
+  void publish(bool reopen);
   void writeDataset(const std::string& dataset, hid_t file_type, hid_t mem_type,
                     const std::vector<hsize_t>& dims, const void* data);
   void writeAttribute(const std::string& object, const std::string& name, hid_t file_type,
@@ -110,7 +118,7 @@ class H5Writer {
   std::string path_, file_path_;
   bool append_ = false, committed_ = false;
   hid_t file_ = -1;
-  int tmp_slot_ = -1;  // create mode: the tmp file's slot in the signal handler's table
+  int tmp_slot_ = -1;  // the tmp file's slot in the signal handler's table
 };
 
 }  // namespace minv
