@@ -89,8 +89,10 @@ def main():
         parts.append("| solver | stage | α | β | γ | δ |\n|---|---|---|---|---|---|")
         for solver in ("ltl", "ltdl"):
             c = b[solver]["factorization"]["mul_fit_depth"][()]
+            # A coefficient at rounding noise of the fit (below 1e-6 of the largest) is 0.
+            big = max(abs(x) for x in c)
             parts.append(f"| {solver} | factorization | " +
-                         " | ".join(f"{x:.4g}" for x in c) + " |")
+                         " | ".join(f"{x if abs(x) > 1e-6 * big else 0:.4g}" for x in c) + " |")
     path = os.path.join(PAPER, "flops_tables.md")
     os.makedirs(PAPER, exist_ok=True)
     with open(path, "w") as out:

@@ -58,13 +58,13 @@ def median(f, name):
     return float(g.attrs["median_s"]) if g is not None else 0.0
 
 
-def sweeps_share(n):
-    """The sweeps' share of abi's counted operations on a serial chain of n links (Table 1's
-    impulse propagation and velocity updates over its total, all operations but comparisons,
-    from the exact fits in results/flops.h5), or 0 without that file."""
+def abi_ops(n):
+    """abi's counted operations on a serial chain of n links, all but comparisons, from the
+    exact fits in results/flops.h5: (the sweeps' (Table 1's impulse propagation and velocity
+    updates), the total), or (0, 0) without that file."""
     path = os.path.join(RESULTS, "flops.h5")
     if not os.path.exists(path):
-        return 0.0
+        return 0.0, 0.0
     with h5py.File(path, "r") as f:
         g = f["serial_fixed"]["abi"]
 
@@ -72,7 +72,7 @@ def sweeps_share(n):
             return sum(float(np.polyval(g[stage][k + "_fit_poly"][()], n))
                        for k in ("add", "mul", "div", "sqrt", "trig"))
 
-        return (ops("impulse propagation") + ops("velocity updates")) / ops("total")
+        return ops("impulse propagation") + ops("velocity updates"), ops("total")
 
 
 def peers_of(f, topo):
@@ -303,7 +303,11 @@ def machines_section():
             pg = f["parts"]["serial"] if "parts" in f else None
             sw, pl = at(pg, "sweeps_us", 2048), at(pg, "pipeline_us", 2048)
             pct = at(a, "abi_percent_of_dgemm", 2048)
-            share = sweeps_share(2048)
+            # The sweeps' share of the operations the file's rate counted (its commit's count:
+            # abi's rate times its time), less today's count outside the sweeps (configure)
+            sweeps_ops, total_ops = abi_ops(2048)
+            file_ops = at(a, "abi_gflops", 2048) * 1e9 * median(f, "inverse/serial/abi/2048")
+            share = (file_ops - (total_ops - sweeps_ops)) / file_ops if file_ops > 0 else 0
             cells = [f"`{name}`: {text(f.attrs.get('cpu_vendor', ''))} {sig}, "
                      f"git {short_sha(f.attrs.get('git_sha', '?'))}, rows {rows_mode}, "
                      f"OpenBLAS {blas[-2] if len(blas) > 2 else '?'}",
@@ -326,7 +330,11 @@ def machines_section():
             "operations per second over dgemm's: the whole pipeline's operations over its time, "
             "then the sweeps' operations (Table 1's impulse propagation and velocity updates, "
             "results/flops.h5) over the sweeps' time (the parts table: configure and the writes "
-            "excluded; — without flops.h5); the last column "
+            "excluded; — without flops.h5). Each file counts the operations of the code it ran "
+            "(its rate is stored with it: files older than fcab329, whose sweeps did 2n² + 29n − 31 "
+            "fewer operations, count 101.5 M at n = 2048 where today's code counts 110.0 M), and "
+            "its sweeps' operations are that count less today's count outside the sweeps; the "
+            "last column "
             "is abi forced to its avx2 level over the store, the nearest this run has to an "
             "AVX2-only machine. Each two-thread cell is abi on 1 thread's time / abi on 2 "
             "threads' time, then twice one alone's time / the time of two one-thread copies of "
