@@ -215,7 +215,12 @@ void annotate(const std::string& path, const std::map<std::string, std::string>&
 }
 
 py::dict readPointsPy(const std::string& path) {
-  const std::map<std::string, PointRecord> points = readPoints(path);
+  // Other threads run while the file is read (in a child process first: isolate.hpp)
+  std::map<std::string, PointRecord> points;
+  {
+    py::gil_scoped_release release;
+    points = readPoints(path);
+  }
   py::dict out;
   for (const auto& [name, record] : points) {
     py::dict d;

@@ -387,6 +387,44 @@ TEST(H5Writer, AppendModeKeepsTheFileWholeWhenAPointFails) {
   }
 }
 
+// One writer per file: a second append writer is refused and touches nothing, the first goes on;
+// a symbolic link is published to its target and stays a link.
+TEST(H5Writer, AppendModeHasOneWriterAndFollowsLinks) {
+  H5Dir dir;
+  const std::string path = dir / "sweep.h5", link = dir / "link.h5";
+  {
+    H5Writer first = H5Writer::append(path);
+    const std::string g = first.beginPoint("p0");
+    first.writeMatrix(g + "/x", Eigen::MatrixXd::Identity(2, 2));
+    try {
+      H5Writer second = H5Writer::append(path);
+      ADD_FAILURE() << "a second writer of one file was let in";
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find("another process is appending to"), std::string::npos)
+          << e.what();
+    }
+    first.endPoint("p0");
+    first.commit();
+  }
+  EXPECT_FALSE(fs::exists(path + ".tmp"));
+  {
+    File f(path);
+    EXPECT_EQ(readData<double>(f, "p0/x", H5T_NATIVE_DOUBLE).size(), 4u);
+  }
+  fs::create_symlink(path, link);
+  {
+    H5Writer w = H5Writer::append(link);
+    const std::string g = w.beginPoint("p1");
+    w.writeMatrix(g + "/x", Eigen::MatrixXd::Identity(3, 3));
+    w.endPoint("p1");
+    w.commit();
+  }
+  EXPECT_TRUE(fs::is_symlink(link));
+  File f(path);
+  EXPECT_EQ(readData<double>(f, "p0/x", H5T_NATIVE_DOUBLE).size(), 4u);
+  EXPECT_EQ(readData<double>(f, "p1/x", H5T_NATIVE_DOUBLE).size(), 9u);
+}
+
 // A create-mode run killed by SIGTERM, SIGINT, SIGHUP or aborted (no destructors) leaves no tmp
 // file, and still dies of that signal; a committed result of an earlier writer stays.
 TEST(H5Writer, KilledCreateModeRunLeavesNoTmpFile) {

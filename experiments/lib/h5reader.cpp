@@ -73,6 +73,17 @@ struct AttrValue {
   }
 };
 
+// A size read from `file` (count values of `size` bytes) that the file cannot hold: damaged
+// (allocated, it could exhaust memory).
+void requireFits(std::size_t count, std::size_t size, const std::string& file) {
+  std::error_code ec;
+  const std::uintmax_t bytes = std::filesystem::file_size(file, ec);
+  if (!ec && size > 0 && count > bytes / size)
+    throw std::runtime_error("'" + file + "' is damaged: it claims " + std::to_string(count) +
+                             " values of " + std::to_string(size) + " bytes, and holds " +
+                             std::to_string(bytes) + " bytes in all");
+}
+
 AttrValue readAttribute(hid_t obj, const std::string& name, const std::string& file) {
   Hid a(H5Aopen(obj, name.c_str(), H5P_DEFAULT), H5Aclose);
   if (a < 0) readFail("open attribute " + name, file);
@@ -107,6 +118,7 @@ AttrValue readAttribute(hid_t obj, const std::string& name, const std::string& f
         v.s = str ? str : "";
         H5free_memory(str);
       } else {
+        requireFits(H5Tget_size(type), 1, file);
         std::string buf(H5Tget_size(type), '\0');
         if (H5Aread(a, type, buf.data()) < 0) readFail("read attribute " + name, file);
         v.s = buf.c_str();
@@ -144,7 +156,18 @@ std::vector<hsize_t> datasetDims(hid_t ds) {
   return dims;
 }
 
+// The number of values of a dataset of dimensions `dims` read from `file` (a product beyond
+// 64 bits is damage).
+std::size_t valueCount(const std::vector<hsize_t>& dims, const std::string& file) {
+  std::size_t count = 1;
+  for (hsize_t d : dims)
+    if (__builtin_mul_overflow(count, d, &count))
+      throw std::runtime_error("'" + file + "' is damaged: a dataset's size overflows 64 bits");
+  return count;
+}
+
 std::vector<double> readDoubles(hid_t ds, std::size_t count, const std::string& file) {
+  requireFits(count, sizeof(double), file);
   std::vector<double> v(count);
   if (count && H5Dread(ds, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()) < 0)
     readFail("read a dataset", file);
@@ -152,6 +175,7 @@ std::vector<double> readDoubles(hid_t ds, std::size_t count, const std::string& 
 }
 
 std::vector<std::int64_t> readInts(hid_t ds, std::size_t count, const std::string& file) {
+  requireFits(count, sizeof(std::int64_t), file);
   std::vector<std::int64_t> v(count);
   if (count && H5Dread(ds, H5T_NATIVE_INT64, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()) < 0)
     readFail("read a dataset", file);
@@ -178,8 +202,7 @@ void copyGroup(hid_t src, H5Writer& h5, const std::string& dst, const std::strin
     Hid ds(H5Dopen2(src, child.c_str(), H5P_DEFAULT), H5Dclose);
     Hid type(H5Dget_type(ds), H5Tclose);
     const std::vector<hsize_t> dims = datasetDims(ds);
-    std::size_t count = 1;
-    for (hsize_t d : dims) count *= d;
+    const std::size_t count = valueCount(dims, file);
     switch (H5Tget_class(type)) {
       case H5T_FLOAT: {
         const std::vector<double> v = readDoubles(ds, count, file);
@@ -200,6 +223,7 @@ void copyGroup(hid_t src, H5Writer& h5, const std::string& dst, const std::strin
         Hid mem(H5Tcopy(H5T_C_S1), H5Tclose);
         H5Tset_size(mem, H5T_VARIABLE);
         H5Tset_cset(mem, H5Tget_cset(type));
+        requireFits(count, 16, file);  // each a 16-byte reference to the global heap
         std::vector<char*> raw(count, nullptr);
         if (count && H5Dread(ds, mem, H5S_ALL, H5S_ALL, H5P_DEFAULT, raw.data()) < 0)
           readFail("read strings " + child, file);
@@ -382,8 +406,7 @@ std::map<std::string, PointRecord> pointsHere(const std::string& path) {
     for (const char* ds_name : {"real_time_s", "parent"}) {
       if (H5Lexists(g, ds_name, H5P_DEFAULT) <= 0) continue;
       Hid ds(H5Dopen2(g, ds_name, H5P_DEFAULT), H5Dclose);
-      std::size_t count = 1;
-      for (hsize_t d : datasetDims(ds)) count *= d;
+      const std::size_t count = valueCount(datasetDims(ds), path);
       if (std::string(ds_name) == "real_time_s")
         rec.real_s = readDoubles(ds, count, path);
       else
@@ -397,31 +420,27 @@ std::map<std::string, PointRecord> pointsHere(const std::string& path) {
 }  // namespace
 
 // Each reads in a child process first (experiments/lib/isolate.hpp): a damaged file that
-// crashes HDF5 there is an exception here. Merge runs whole in the child, which writes `out`.
+// crashes HDF5 there is an exception here; if the child ends, the reading is done again here
+// (its exceptions keep their types). Merge runs whole in the child, which writes `out`.
 SweepSetting::SweepSetting(std::string n, double v) : name(std::move(n)), text(formatNumber(v)) {}
 
 void requireSameSettings(const std::string& path, const std::string& option,
                          const std::vector<SweepSetting>& settings,
                          const std::vector<std::string>& objects) {
-  inChildProcess([&] {
-    sameSettingsHere(path, option, settings, objects);
-    return std::string();
-  });
+  vetInChildProcess([&] { sameSettingsHere(path, option, settings, objects); },
+                    childSeconds({path}));
   sameSettingsHere(path, option, settings, objects);
 }
 
 int mergeResultFiles(const std::vector<std::string>& inputs, const std::string& out) {
   if (inputs.empty()) throw std::invalid_argument("merge needs at least one input file");
-  const std::string points =
-      inChildProcess([&] { return std::to_string(mergeHere(inputs, out)); }, {out + ".tmp"});
+  const std::string points = inChildProcess([&] { return std::to_string(mergeHere(inputs, out)); },
+                                            childSeconds(inputs), {out + ".tmp"});
   return std::stoi(points);
 }
 
 std::map<std::string, PointRecord> readPoints(const std::string& path) {
-  inChildProcess([&] {
-    pointsHere(path);
-    return std::string();
-  });
+  vetInChildProcess([&] { pointsHere(path); }, childSeconds({path}));
   return pointsHere(path);
 }
 

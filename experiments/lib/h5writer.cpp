@@ -1,8 +1,11 @@
 #include "experiments/lib/h5writer.hpp"
 
+#include <fcntl.h>
+#include <sys/file.h>
 #include <unistd.h>
 
 #include <atomic>
+#include <cerrno>
 #include <csignal>
 #include <cstring>
 #include <filesystem>
@@ -162,6 +165,12 @@ void silenceHdf5Errors() {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
 }
 
+// In a forked child: none of the parent's tmp files in the table (a signal to the child alone
+// must not remove them).
+void forgetInheritedTmpFiles() {
+  for (TmpSlot& slot : tmpSlots) slot.used.store(false, std::memory_order_relaxed);
+}
+
 // Both modes write to the tmp file: create mode a new one, append mode a copy of the file.
 H5Writer::H5Writer(const std::string& path) : H5Writer(path, false) {}
 
@@ -174,63 +183,98 @@ H5Writer::H5Writer(const std::string& path, bool append)
   silenceHdf5Errors();
   if (path.empty()) throw std::runtime_error("HDF5: empty output file name");
   requireOutputFile(path);
-  // An existing file to append to: read whole in a child process first (a damaged one must not
-  // crash this one), and an HDF5 file
   std::error_code ec;
-  const bool existing = append && std::filesystem::exists(path, ec);
-  if (existing) {
-    requireUndamaged(path);
-    if (H5Fis_hdf5(path.c_str()) <= 0) {
-      H5Eclear2(H5E_DEFAULT);
-      fail("open for appending (not an HDF5 file)", path);
+  if (!append) {
+    // Create mode: the tmp file, known to the signal handler before it exists
+    tmp_slot_ = registerTmp(std::filesystem::absolute(file_path_, ec).string());
+    try {
+      file_ = openWorkingCopy(true);
+    } catch (...) {
+      unregisterTmp(std::exchange(tmp_slot_, -1));
+      throw;
     }
+    return;
   }
-  // The tmp file, known to the signal handler before it exists: the file's copy, or a new file
-  tmp_slot_ = registerTmp(std::filesystem::absolute(file_path_, ec).string());
-  std::error_code copying;
-  if (existing) {
-    std::filesystem::copy_file(path, file_path_, std::filesystem::copy_options::overwrite_existing,
-                               copying);
-    if (!copying) file_ = openWorkingCopy();
-  } else {
-    // Strong close degree: closing the file closes anything still open in it.
-    Hid fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
-    if (fapl.ok() && H5Pset_fclose_degree(fapl, H5F_CLOSE_STRONG) >= 0)
-      file_ = H5Fcreate(file_path_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
+  // Append mode: a symbolic link's target is the file (publishing replaces it)
+  if (std::filesystem::is_symlink(path, ec)) {
+    path_ = std::filesystem::canonical(path, ec).string();
+    if (ec) throw std::runtime_error("cannot resolve the link '" + path + "': " + ec.message());
+    file_path_ = path_ + ".tmp";
   }
-  if (file_ < 0) {
-    if (existing) std::filesystem::remove(file_path_, ec);
-    unregisterTmp(std::exchange(tmp_slot_, -1));
-    if (copying)
-      throw std::runtime_error("cannot copy " + path + " to " + file_path_ + ": " +
-                               copying.message());
-    fail(existing ? "open for appending" : "create", existing ? path : file_path_);
+  const bool existing = std::filesystem::exists(path_, ec);
+  if (existing && H5Fis_hdf5(path_.c_str()) <= 0) {
+    H5Eclear2(H5E_DEFAULT);
+    fail("open for appending (not an HDF5 file)", path_);
+  }
+  try {
+    // The working copy, locked for the writer's life (one writer per file; a stale copy of a
+    // killed run is not locked)
+    tmp_slot_ = registerTmp(std::filesystem::absolute(file_path_, ec).string());
+    lock_fd_ = open(file_path_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0666);
+    if (lock_fd_ < 0)
+      throw std::runtime_error("cannot create " + file_path_ + ": " + std::strerror(errno));
+    if (flock(lock_fd_, LOCK_EX | LOCK_NB) != 0) {
+      close(std::exchange(lock_fd_, -1));
+      unregisterTmp(std::exchange(tmp_slot_, -1));
+      throw std::runtime_error("another process is appending to '" + path_ +
+                               "' (its working copy " + file_path_ +
+                               " is locked): one writer per file");
+    }
+    new_slot_ = registerTmp(std::filesystem::absolute(path_ + ".new", ec).string());
+    if (existing) {
+      // The file read whole, and the first writes tried on a copy, in a child process (a
+      // damaged file must not crash this one); then the copy made again and opened
+      copyFile(path_, file_path_);
+      requireUndamaged(path_, file_path_);
+      copyFile(path_, file_path_);
+    }
+    file_ = openWorkingCopy(!existing);
+  } catch (...) {
+    abandon();
+    throw;
   }
 }
 
-// The tmp file opened read-write (strong close degree: closing the file closes anything still
-// open in it); negative on failure.
-hid_t H5Writer::openWorkingCopy() const {
+// Create mode's file, or append mode's working copy: HDF5's own lock off there (the writer
+// holds its own), strong close degree (closing the file closes anything still open in it).
+hid_t H5Writer::openWorkingCopy(bool create) const {
   Hid fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
-  if (!fapl.ok() || H5Pset_fclose_degree(fapl, H5F_CLOSE_STRONG) < 0) return -1;
-  return H5Fopen(file_path_.c_str(), H5F_ACC_RDWR, fapl);
+  if (!fapl.ok() || H5Pset_fclose_degree(fapl, H5F_CLOSE_STRONG) < 0 ||
+      (append_ && H5Pset_file_locking(fapl, false, true) < 0))
+    fail("set up file access for", file_path_);
+  const hid_t f = create ? H5Fcreate(file_path_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl)
+                         : H5Fopen(file_path_.c_str(), H5F_ACC_RDWR, fapl);
+  if (f < 0) fail(create ? "create" : "open for appending", append_ ? path_ : file_path_);
+  return f;
 }
 
-// Append mode: close the working copy and rename it to path(); to go on, copy it back and
-// open that.
-void H5Writer::publish(bool reopen) {
-  if (H5Fclose(std::exchange(file_, -1)) < 0) fail("close", file_path_);
+// Byte for byte, replacing `to`.
+void H5Writer::copyFile(const std::string& from, const std::string& to) const {
   std::error_code ec;
-  std::filesystem::rename(file_path_, path_, ec);
-  if (ec)
-    throw std::runtime_error("cannot rename " + file_path_ + " to " + path_ + ": " + ec.message());
-  if (!reopen) return;
-  std::filesystem::copy_file(path_, file_path_, std::filesystem::copy_options::overwrite_existing,
-                             ec);
-  if (ec)
-    throw std::runtime_error("cannot copy " + path_ + " to " + file_path_ + ": " + ec.message());
-  file_ = openWorkingCopy();
-  if (file_ < 0) fail("open again for appending", file_path_);
+  std::filesystem::copy_file(from, to, std::filesystem::copy_options::overwrite_existing, ec);
+  if (ec) throw std::runtime_error("cannot copy " + from + " to " + to + ": " + ec.message());
+}
+
+// Append mode: the working copy flushed, copied beside the file and moved over it.
+void H5Writer::publish() {
+  if (H5Fflush(file_, H5F_SCOPE_GLOBAL) < 0) fail("flush", path_);
+  const std::string next = path_ + ".new";
+  copyFile(file_path_, next);
+  std::error_code ec;
+  std::filesystem::rename(next, path_, ec);
+  if (ec) throw std::runtime_error("cannot rename " + next + " to " + path_ + ": " + ec.message());
+}
+
+// Close the file and remove the tmp files (the working copy only while holding its lock);
+// release the lock and the signal handler's slots.
+void H5Writer::abandon() {
+  if (file_ >= 0) H5Fclose(std::exchange(file_, -1));
+  std::error_code ec;
+  if (!append_ || lock_fd_ >= 0) std::filesystem::remove(file_path_, ec);
+  if (append_) std::filesystem::remove(path_ + ".new", ec);
+  if (lock_fd_ >= 0) close(std::exchange(lock_fd_, -1));
+  unregisterTmp(std::exchange(tmp_slot_, -1));
+  unregisterTmp(std::exchange(new_slot_, -1));
 }
 
 H5Writer::H5Writer(H5Writer&& other) noexcept
@@ -239,18 +283,16 @@ H5Writer::H5Writer(H5Writer&& other) noexcept
       append_(other.append_),
       committed_(other.committed_),
       file_(std::exchange(other.file_, -1)),
-      tmp_slot_(std::exchange(other.tmp_slot_, -1)) {
+      lock_fd_(std::exchange(other.lock_fd_, -1)),
+      tmp_slot_(std::exchange(other.tmp_slot_, -1)),
+      new_slot_(std::exchange(other.new_slot_, -1)) {
   other.committed_ = true;  // the moved-from writer owns no file and must not remove one
 }
 
-// Without commit: close, and delete the tmp file.
+// Without commit: close, and delete the tmp files.
 H5Writer::~H5Writer() {
-  if (file_ >= 0) H5Fclose(file_);
-  if (!committed_ && !file_path_.empty()) {
-    std::error_code ec;
-    std::filesystem::remove(file_path_, ec);
-  }
-  unregisterTmp(tmp_slot_);
+  if (committed_) return;
+  abandon();
 }
 
 void H5Writer::requireOpen(const char* what) const {
@@ -421,27 +463,23 @@ void H5Writer::remove(const std::string& object) {
 
 void H5Writer::flush() {
   requireOpen("flush");
-  if (append_) return publish(true);
+  if (append_) return publish();
   if (H5Fflush(file_, H5F_SCOPE_GLOBAL) < 0) fail("flush", file_path_);
 }
 
-// Close (which writes everything), then move the tmp file into place.
+// Close (which writes everything), then move the tmp file into place; release the lock.
 void H5Writer::commit() {
   requireOpen("commit");
-  if (append_) {
-    publish(false);
-    committed_ = true;
-    unregisterTmp(std::exchange(tmp_slot_, -1));
-    return;
-  }
   const herr_t closed = H5Fclose(std::exchange(file_, -1));
-  if (closed < 0) fail("close", file_path_);
+  if (closed < 0) fail("close", append_ ? path_ : file_path_);
   std::error_code ec;
   std::filesystem::rename(file_path_, path_, ec);
   if (ec)
     throw std::runtime_error("cannot rename " + file_path_ + " to " + path_ + ": " + ec.message());
   committed_ = true;
+  if (lock_fd_ >= 0) close(std::exchange(lock_fd_, -1));
   unregisterTmp(std::exchange(tmp_slot_, -1));
+  unregisterTmp(std::exchange(new_slot_, -1));
 }
 
 }  // namespace minv

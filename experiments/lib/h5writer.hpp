@@ -10,17 +10,22 @@
 //     before (Python keeps its own SIGINT).
 //   * H5Writer::append(path) adds to `path` (or creates it), for sweeps that write each point
 //     when it finishes and resume after a kill: write a point between beginPoint(name) and
-//     endPoint(name). The writer works on a copy, `path + ".tmp"`; flush() (which endPoint()
-//     calls) publishes it: closes the copy, renames it to `path`, and copies it back to go on.
-//     So `path` is always a whole file as the last publication left it: a kill, a full disk or
-//     a crash in the middle of a point loses that point only (a kill in place could leave an
-//     HDF5 file unreadable, and every point in it lost), and the tmp copy is removed as in
-//     create mode. A point's data go to a staging group "<name>.partial", which endPoint()
-//     renames to <name>, so hasGroup(name) is true only for finished points; beginPoint()
-//     drops a staging group that an older, in-place run left behind. An existing `path` is
-//     first read whole in a child process (isolate.hpp: requireUndamaged), so that a damaged
-//     file is an error, not a crash. One writer per file: two processes appending to one file
-//     at once overwrite each other's points.
+//     endPoint(name). The writer works on a copy, `path + ".tmp"`, which it holds locked
+//     (flock) for its life: a second writer of the same file is refused ("another process is
+//     appending to …") and touches nothing. flush(), which endPoint() calls, publishes the
+//     copy: flushes it, copies it to `path + ".new"` and renames that over `path`. So `path` is
+//     always a whole file as the last publication left it: a kill, a full disk or a crash in
+//     the middle of a point loses that point only (written in place, a kill could leave an HDF5
+//     file unreadable, every point in it lost), and the tmp files are removed as in create
+//     mode (a SIGKILLed writer's stale copy is replaced by the next). commit() closes the copy
+//     and renames it to `path`. A point's data go to a staging group "<name>.partial", which
+//     endPoint() renames to <name>, so hasGroup(name) is true only for finished points;
+//     beginPoint() drops a staging group that an older, in-place run left behind. An existing
+//     `path` is first read whole, and the first writes tried on a copy, in a child process
+//     (isolate.hpp: requireUndamaged), so that a damaged file is an error, not a crash. A
+//     symbolic link `path` publishes to its target. Each point copies the file once (1270
+//     points of the quick timing sweep, up to 7 MB: a few seconds in all), and power loss is
+//     not covered (no fsync).
 //   * Object paths are "/"-separated and relative to the root ("a/b" = "/a/b"); writing a
 //     dataset creates the missing groups on its path.
 //   * Layout: a matrix is stored row-major as [rows, cols], so h5py reads M[i, j] = M(i, j);
@@ -44,12 +49,15 @@ namespace minv {
 // Switch off HDF5's automatic error-stack printing and, when it comes before HDF5's first call
 // in the process, HDF5's close at exit (process-wide; idempotent).
 void silenceHdf5Errors();
+// In a forked child (isolate.hpp): forget the parent's tmp files, so that a signal to the child
+// alone does not remove them.
+void forgetInheritedTmpFiles();
 
 class H5Writer {
  public:
   // Create mode: write to path + ".tmp", renamed to path by commit().
   explicit H5Writer(const std::string& path);
-  // Append mode: add to path (or create it), through a copy published by flush().
+  // Append mode: add to path (or create it), through a locked copy published by flush().
   static H5Writer append(const std::string& path);
 
   H5Writer(H5Writer&& other) noexcept;
@@ -107,8 +115,10 @@ class H5Writer {
  private:
   H5Writer(const std::string& path, bool append);
   void requireOpen(const char* what) const;
-  hid_t openWorkingCopy() const;
-  void publish(bool reopen);
+  hid_t openWorkingCopy(bool create) const;
+  void copyFile(const std::string& from, const std::string& to) const;
+  void publish();
+  void abandon();
   void writeDataset(const std::string& dataset, hid_t file_type, hid_t mem_type,
                     const std::vector<hsize_t>& dims, const void* data);
   void writeAttribute(const std::string& object, const std::string& name, hid_t file_type,
@@ -118,7 +128,9 @@ class H5Writer {
   std::string path_, file_path_;
   bool append_ = false, committed_ = false;
   hid_t file_ = -1;
+  int lock_fd_ = -1;   // append mode: the working copy, locked
   int tmp_slot_ = -1;  // the tmp file's slot in the signal handler's table
+  int new_slot_ = -1;  // append mode: the publication's copy's slot
 };
 
 }  // namespace minv

@@ -1,21 +1,18 @@
 #include "experiments/lib/isolate.hpp"
 
+#include <fcntl.h>
 #include <hdf5.h>
 #include <signal.h>
 #include <sys/prctl.h>
 #include <sys/resource.h>
-#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <cerrno>
 #include <cstdint>
 #include <cstring>
-#include <mutex>
-#include <new>
-#include <set>
+#include <filesystem>
 #include <stdexcept>
-#include <tuple>
 
 #include "experiments/lib/h5writer.hpp"
 
@@ -24,7 +21,7 @@ namespace minv {
 namespace {
 
 // Records on the pipe from child to parent: one tag byte, a 4-byte length, the bytes.
-enum Tag : char { kReading = 'F', kResult = 'R', kInvalid = 'I', kNoMemory = 'M', kError = 'E' };
+enum Tag : char { kReading = 'F', kResult = 'R', kInvalid = 'I', kError = 'E' };
 
 bool inChild = false;  // this process is a child of inChildProcess
 int childPipe = -1;    // its end of the pipe
@@ -46,24 +43,33 @@ void sendRecord(Tag tag, const std::string& text) {
   writeAll(childPipe, text.data(), n);
 }
 
-// The child: killed with its parent, default actions for the signals a crash raises (a host's
-// handler, Python's faulthandler or our tmp-file cleanup, is the parent's business), no core
-// file, a time limit; then the work, its outcome as the last record, and _exit.
-[[noreturn]] void runChild(int fd, pid_t parent, const std::function<std::string()>& work) {
+// The child: killed with its parent, every signal unblocked, default actions for the signals a
+// crash raises (a host's handler, Python's faulthandler or our tmp-file cleanup, is the parent's
+// business), none of the parent's tmp files or other descriptors, stderr on /dev/null (glibc's
+// and a sanitizer's reports of the crash), no core file, a time limit; then the work, its
+// outcome as the last record, and _exit.
+[[noreturn]] void runChild(int fd, pid_t parent, unsigned seconds,
+                           const std::function<std::string()>& work) {
   prctl(PR_SET_PDEATHSIG, SIGKILL);
   if (getppid() != parent) _exit(1);  // the parent died before the line above
   inChild = true;
   childPipe = fd;
+  sigset_t none;
+  sigemptyset(&none);
+  sigprocmask(SIG_SETMASK, &none, nullptr);
   for (const int sig : {SIGSEGV, SIGBUS, SIGABRT, SIGFPE, SIGILL, SIGALRM}) signal(sig, SIG_DFL);
+  forgetInheritedTmpFiles();
+  if (fd > 3) close_range(3, fd - 1, 0);
+  close_range(fd + 1, ~0U, 0);
+  const int null = open("/dev/null", O_WRONLY | O_CLOEXEC);
+  if (null >= 0) dup2(null, 2), close(null);
   const struct rlimit no_core { 0, 0 };
   setrlimit(RLIMIT_CORE, &no_core);
-  alarm(kChildSeconds);
+  alarm(seconds);
   try {
     sendRecord(kResult, work());
   } catch (const std::invalid_argument& e) {
     sendRecord(kInvalid, e.what());
-  } catch (const std::bad_alloc&) {
-    sendRecord(kNoMemory, "");
   } catch (const std::exception& e) {
     sendRecord(kError, e.what());
   } catch (...) {
@@ -161,17 +167,42 @@ void readWholeFile(const std::string& path) {
   H5Ovisit2(file, H5_INDEX_NAME, H5_ITER_INC, readOneObject, nullptr, H5O_INFO_BASIC);
 }
 
-}  // namespace
-
-void noteReading(const std::string& path) {
-  if (inChild) sendRecord(kReading, path);
+// The writes an append begins with, on a scratch copy (which the parent holds locked: HDF5's
+// own lock is off): a group with a string attribute at the root and in "points".
+void trialWrite(const std::string& copy) {
+  Id fapl{H5Pcreate(H5P_FILE_ACCESS), H5Pclose};
+  if (fapl < 0 || H5Pset_file_locking(fapl, false, true) < 0) return;
+  Id file{H5Fopen(copy.c_str(), H5F_ACC_RDWR, fapl), H5Fclose};
+  if (file < 0) return;
+  for (const char* parent : {"/", "/points"}) {
+    if (std::strcmp(parent, "/") != 0 && H5Lexists(file, parent, H5P_DEFAULT) <= 0) continue;
+    const std::string name = std::string(parent) + (parent[1] ? "/" : "") + "minv-trial-write";
+    Id g{H5Gcreate2(file, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose};
+    if (g < 0) continue;
+    Id type{H5Tcopy(H5T_C_S1), H5Tclose};
+    Id space{H5Screate(H5S_SCALAR), H5Sclose};
+    if (type < 0 || space < 0 || H5Tset_size(type, H5T_VARIABLE) < 0) continue;
+    Id a{H5Acreate2(g, "trial", type, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose};
+    const char* text = "trial";
+    if (a >= 0) H5Awrite(a, type, &text);
+  }
 }
 
-std::string inChildProcess(const std::function<std::string()>& work,
-                           const std::vector<std::string>& remove_on_crash) {
-  if (inChild) return work();
+// What a child did: its exit status and the records it sent.
+struct Outcome {
+  int status = 0;
+  std::vector<std::pair<char, std::string>> records;
+  // It returned or threw (its last record says which)
+  bool finished() const {
+    return WIFEXITED(status) && WEXITSTATUS(status) == 0 && !records.empty() &&
+           records.back().first != kReading;
+  }
+};
+
+// `work` in a fork of this process.
+Outcome runForked(const std::function<std::string()>& work, unsigned seconds) {
   int fds[2];
-  if (pipe(fds) != 0)
+  if (pipe2(fds, O_CLOEXEC) != 0)
     throw std::runtime_error(std::string("cannot make a pipe: ") + std::strerror(errno));
   const pid_t self = getpid(), pid = fork();
   if (pid < 0) {
@@ -180,67 +211,86 @@ std::string inChildProcess(const std::function<std::string()>& work,
   }
   if (pid == 0) {
     close(fds[0]);
-    runChild(fds[1], self, work);
+    runChild(fds[1], self, seconds, work);
   }
   close(fds[1]);
-  const auto records = readRecords(fds[0]);
+  Outcome o;
+  o.records = readRecords(fds[0]);
   close(fds[0]);
-  int status = 0;
-  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  pid_t waited;
+  while ((waited = waitpid(pid, &o.status, 0)) < 0 && errno == EINTR) {
   }
-  // Its outcome, if it came to one
-  if (WIFEXITED(status) && WEXITSTATUS(status) == 0 && !records.empty()) {
-    const auto& [tag, text] = records.back();
-    switch (tag) {
-      case kResult:
-        return text;
-      case kInvalid:
-        throw std::invalid_argument(text);
-      case kNoMemory:
-        throw std::bad_alloc();
-      case kError:
-        throw std::runtime_error(text);
-      default:
-        break;
-    }
-  }
-  // A crash, a hang or an exit without an outcome: what it was reading is damaged
+  if (waited != pid)
+    throw std::runtime_error(std::string("cannot wait for the process that reads the file: ") +
+                             std::strerror(errno));
+  return o;
+}
+
+// A crash, a hang or an exit without an outcome: what the child was reading is damaged.
+[[noreturn]] void reportDamage(const Outcome& o, unsigned seconds,
+                               const std::vector<std::string>& remove_on_crash) {
   for (const std::string& f : remove_on_crash) unlink(f.c_str());
   std::string file;
-  for (const auto& [tag, text] : records)
+  for (const auto& [tag, text] : o.records)
     if (tag == kReading) file = text;
   std::string how;
-  if (WIFSIGNALED(status) && WTERMSIG(status) == SIGALRM)
-    how = "reading it did not end within " + std::to_string(kChildSeconds) + " s";
-  else if (WIFSIGNALED(status))
-    how = "HDF5 crashed on it (" + signalName(WTERMSIG(status)) + ")";
+  if (WIFSIGNALED(o.status) && WTERMSIG(o.status) == SIGALRM)
+    how = "reading it did not end within " + std::to_string(seconds) + " s";
+  else if (WIFSIGNALED(o.status))
+    how = "HDF5 crashed on it (" + signalName(WTERMSIG(o.status)) + ")";
   else
-    how = "reading it ended without a result (exit " + std::to_string(WEXITSTATUS(status)) + ")";
+    how = "reading it ended without a result (exit " + std::to_string(WEXITSTATUS(o.status)) + ")";
   throw std::runtime_error((file.empty() ? std::string("a result file") : "'" + file + "'") +
                            " is damaged: " + how +
                            " in a child process that read it first; nothing was written");
 }
 
-void requireUndamaged(const std::string& path) {
-  if (inChild) return;
-  // Files that passed, as (device, inode, size, modification time)
-  using Key = std::tuple<dev_t, ino_t, off_t, std::int64_t>;
-  static std::mutex mutex;
-  static std::set<Key> passed;
-  struct stat st {};
-  if (stat(path.c_str(), &st) != 0) return;  // the caller's own open says what is wrong
-  const Key key{st.st_dev, st.st_ino, st.st_size,
-                std::int64_t(st.st_mtim.tv_sec) * 1000000000 + st.st_mtim.tv_nsec};
-  {
-    const std::lock_guard lock(mutex);
-    if (passed.count(key)) return;
+}  // namespace
+
+unsigned childSeconds(const std::vector<std::string>& files) {
+  std::uintmax_t bytes = 0;
+  for (const std::string& f : files) {
+    std::error_code ec;
+    const std::uintmax_t size = std::filesystem::file_size(f, ec);
+    if (!ec) bytes += size;
   }
-  inChildProcess([&] {
-    readWholeFile(path);
-    return std::string();
-  });
-  const std::lock_guard lock(mutex);
-  passed.insert(key);
+  return static_cast<unsigned>(10 + std::min<std::uintmax_t>(bytes / 10000000, 3600));
+}
+
+void noteReading(const std::string& path) {
+  if (inChild) sendRecord(kReading, path);
+}
+
+std::string inChildProcess(const std::function<std::string()>& work, unsigned seconds,
+                           const std::vector<std::string>& remove_on_crash) {
+  if (inChild) return work();
+  const Outcome o = runForked(work, seconds);
+  if (!o.finished()) reportDamage(o, seconds, remove_on_crash);
+  const auto& [tag, text] = o.records.back();
+  if (tag == kInvalid) throw std::invalid_argument(text);
+  if (tag == kError) throw std::runtime_error(text);
+  return text;
+}
+
+bool vetInChildProcess(const std::function<void()>& work, unsigned seconds) {
+  if (inChild) return true;
+  const Outcome o = runForked(
+      [&] {
+        work();
+        return std::string();
+      },
+      seconds);
+  if (!o.finished()) reportDamage(o, seconds, {});
+  return o.records.back().first == kResult;
+}
+
+void requireUndamaged(const std::string& path, const std::string& scratch_copy) {
+  vetInChildProcess(
+      [&] {
+        readWholeFile(path);
+        if (!scratch_copy.empty()) trialWrite(scratch_copy);
+      },
+      childSeconds({path}));
 }
 
 }  // namespace minv

@@ -206,6 +206,8 @@ def test_files_and_sizes_that_are_not_what_they_should_be(tmp_path):
         f.attrs["experiment"] = "flops"
     with pytest.raises(RuntimeError, match="is not a timing-sweep file \\(experiment 'flops'"):
         minv.read_points(str(other))  # it returned {} as if the sweep were empty
+    with pytest.raises(minv.ModelError, match="is a directory"):
+        minv.read_points(str(tmp_path))  # read in a child process first: the type is kept
     model = minv.random_tree("serial", 4)
     with pytest.raises(ValueError, match="m must be between 0 and 100000, got 1000000000"):
         minv.flops("abi", model, model.neutral(), 10**9)
