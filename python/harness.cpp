@@ -215,12 +215,9 @@ void annotate(const std::string& path, const std::map<std::string, std::string>&
 }
 
 py::dict readPointsPy(const std::string& path) {
-  // Other threads run while the file is read (in a child process first: isolate.hpp)
-  std::map<std::string, PointRecord> points;
-  {
-    py::gil_scoped_release release;
-    points = readPoints(path);
-  }
+  // With the GIL held: the file is read in a child process first (isolate.hpp), which must not
+  // be forked while another thread of ours is inside HDF5
+  const std::map<std::string, PointRecord> points = readPoints(path);
   py::dict out;
   for (const auto& [name, record] : points) {
     py::dict d;

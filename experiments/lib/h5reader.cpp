@@ -248,9 +248,9 @@ bool endsWith(const std::string& s, const std::string& suffix) {
 }
 
 hid_t openReadOnly(const std::string& path) {
+  noteReading(path);
   requireInputFile(path);
   silenceHdf5Errors();
-  noteReading(path);
   const hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
   if (f < 0) throw std::runtime_error("cannot open result file '" + path + "'");
   return f;
@@ -341,9 +341,9 @@ int mergeHere(const std::vector<std::string>& inputs, const std::string& out) {
   // of a sweep (the root's, which the merged file keeps from the first input) must agree.
   std::vector<SweepSetting> first;  // the first input's settings, as it holds them
   for (const std::string& in : inputs) {
+    noteReading(in);
     requireInputFile(in);
     silenceHdf5Errors();
-    noteReading(in);
     Hid file(H5Fopen(in.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
     if (file < 0)
       throw std::runtime_error("input file '" + in +
@@ -427,20 +427,19 @@ SweepSetting::SweepSetting(std::string n, double v) : name(std::move(n)), text(f
 void requireSameSettings(const std::string& path, const std::string& option,
                          const std::vector<SweepSetting>& settings,
                          const std::vector<std::string>& objects) {
-  vetInChildProcess([&] { sameSettingsHere(path, option, settings, objects); },
-                    childSeconds({path}));
+  vetInChildProcess([&] { sameSettingsHere(path, option, settings, objects); }, {path});
   sameSettingsHere(path, option, settings, objects);
 }
 
 int mergeResultFiles(const std::vector<std::string>& inputs, const std::string& out) {
   if (inputs.empty()) throw std::invalid_argument("merge needs at least one input file");
   const std::string points = inChildProcess([&] { return std::to_string(mergeHere(inputs, out)); },
-                                            childSeconds(inputs), {out + ".tmp"});
+                                            inputs, {out + ".tmp"});
   return std::stoi(points);
 }
 
 std::map<std::string, PointRecord> readPoints(const std::string& path) {
-  vetInChildProcess([&] { pointsHere(path); }, childSeconds({path}));
+  vetInChildProcess([&] { pointsHere(path); }, {path});
   return pointsHere(path);
 }
 

@@ -1,7 +1,7 @@
 #include "experiments/lib/h5writer.hpp"
 
 #include <fcntl.h>
-#include <sys/file.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -179,7 +179,7 @@ H5Writer H5Writer::append(const std::string& path) {
 }
 
 H5Writer::H5Writer(const std::string& path, bool append)
-    : path_(path), file_path_(path + ".tmp"), append_(append) {
+    : path_(path), file_path_(path + (append ? ".append.tmp" : ".tmp")), append_(append) {
   silenceHdf5Errors();
   if (path.empty()) throw std::runtime_error("HDF5: empty output file name");
   requireOutputFile(path);
@@ -199,28 +199,20 @@ H5Writer::H5Writer(const std::string& path, bool append)
   if (std::filesystem::is_symlink(path, ec)) {
     path_ = std::filesystem::canonical(path, ec).string();
     if (ec) throw std::runtime_error("cannot resolve the link '" + path + "': " + ec.message());
-    file_path_ = path_ + ".tmp";
+    file_path_ = path_ + ".append.tmp";
   }
-  const bool existing = std::filesystem::exists(path_, ec);
-  if (existing && H5Fis_hdf5(path_.c_str()) <= 0) {
-    H5Eclear2(H5E_DEFAULT);
-    fail("open for appending (not an HDF5 file)", path_);
-  }
+  publish_path_ = path_ + ".publish.tmp";
+  lockWorkingCopy();
   try {
-    // The working copy, locked for the writer's life (one writer per file; a stale copy of a
-    // killed run is not locked)
+    // The tmp files known to the signal handler, a killed run's publication copy removed
     tmp_slot_ = registerTmp(std::filesystem::absolute(file_path_, ec).string());
-    lock_fd_ = open(file_path_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0666);
-    if (lock_fd_ < 0)
-      throw std::runtime_error("cannot create " + file_path_ + ": " + std::strerror(errno));
-    if (flock(lock_fd_, LOCK_EX | LOCK_NB) != 0) {
-      close(std::exchange(lock_fd_, -1));
-      unregisterTmp(std::exchange(tmp_slot_, -1));
-      throw std::runtime_error("another process is appending to '" + path_ +
-                               "' (its working copy " + file_path_ +
-                               " is locked): one writer per file");
+    publish_slot_ = registerTmp(std::filesystem::absolute(publish_path_, ec).string());
+    std::filesystem::remove(publish_path_, ec);
+    const bool existing = std::filesystem::exists(path_, ec);
+    if (existing && H5Fis_hdf5(path_.c_str()) <= 0) {
+      H5Eclear2(H5E_DEFAULT);
+      fail("open for appending (not an HDF5 file)", path_);
     }
-    new_slot_ = registerTmp(std::filesystem::absolute(path_ + ".new", ec).string());
     if (existing) {
       // The file read whole, and the first writes tried on a copy, in a child process (a
       // damaged file must not crash this one); then the copy made again and opened
@@ -233,6 +225,39 @@ H5Writer::H5Writer(const std::string& path, bool append)
     abandon();
     throw;
   }
+}
+
+// Append mode: the working copy opened (not truncated) and locked for the writer's life with
+// an open-file-description lock (one writer per file; independent of the flock HDF5 may take,
+// which an environment variable can switch on). A stale copy of a killed run is not locked; a
+// lock taken on a copy that its writer moved or removed meanwhile is taken again on the new
+// one. Another writer's lock: refused, nothing touched.
+void H5Writer::lockWorkingCopy() {
+  for (int attempt = 0; attempt < 8; ++attempt) {
+    lock_fd_ = open(file_path_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0666);
+    if (lock_fd_ < 0)
+      throw std::runtime_error("cannot create " + file_path_ + ": " + std::strerror(errno));
+    struct flock whole {};
+    whole.l_type = F_WRLCK;
+    whole.l_whence = SEEK_SET;
+    if (fcntl(lock_fd_, F_OFD_SETLK, &whole) != 0) {
+      const int err = errno;
+      close(std::exchange(lock_fd_, -1));
+      if (err == EAGAIN || err == EACCES)
+        throw std::runtime_error("another process is appending to '" + path_ +
+                                 "' (its working copy " + file_path_ +
+                                 " is locked): one writer per file");
+      throw std::runtime_error("cannot lock " + file_path_ + ": " + std::strerror(err));
+    }
+    // The lock is on the file that the name still names
+    struct stat held {
+    }, named{};
+    if (fstat(lock_fd_, &held) == 0 && stat(file_path_.c_str(), &named) == 0 &&
+        held.st_dev == named.st_dev && held.st_ino == named.st_ino)
+      return;
+    close(std::exchange(lock_fd_, -1));
+  }
+  throw std::runtime_error("cannot lock " + file_path_ + ": it keeps being replaced");
 }
 
 // Create mode's file, or append mode's working copy: HDF5's own lock off there (the writer
@@ -258,34 +283,36 @@ void H5Writer::copyFile(const std::string& from, const std::string& to) const {
 // Append mode: the working copy flushed, copied beside the file and moved over it.
 void H5Writer::publish() {
   if (H5Fflush(file_, H5F_SCOPE_GLOBAL) < 0) fail("flush", path_);
-  const std::string next = path_ + ".new";
-  copyFile(file_path_, next);
+  copyFile(file_path_, publish_path_);
   std::error_code ec;
-  std::filesystem::rename(next, path_, ec);
-  if (ec) throw std::runtime_error("cannot rename " + next + " to " + path_ + ": " + ec.message());
+  std::filesystem::rename(publish_path_, path_, ec);
+  if (ec)
+    throw std::runtime_error("cannot rename " + publish_path_ + " to " + path_ + ": " +
+                             ec.message());
 }
 
-// Close the file and remove the tmp files (the working copy only while holding its lock);
-// release the lock and the signal handler's slots.
+// Close the file and remove the tmp files (in append mode only while holding the lock: a
+// refused writer touches nothing); release the lock and the signal handler's slots.
 void H5Writer::abandon() {
   if (file_ >= 0) H5Fclose(std::exchange(file_, -1));
   std::error_code ec;
   if (!append_ || lock_fd_ >= 0) std::filesystem::remove(file_path_, ec);
-  if (append_) std::filesystem::remove(path_ + ".new", ec);
+  if (append_ && lock_fd_ >= 0) std::filesystem::remove(publish_path_, ec);
   if (lock_fd_ >= 0) close(std::exchange(lock_fd_, -1));
   unregisterTmp(std::exchange(tmp_slot_, -1));
-  unregisterTmp(std::exchange(new_slot_, -1));
+  unregisterTmp(std::exchange(publish_slot_, -1));
 }
 
 H5Writer::H5Writer(H5Writer&& other) noexcept
     : path_(std::move(other.path_)),
       file_path_(std::move(other.file_path_)),
+      publish_path_(std::move(other.publish_path_)),
       append_(other.append_),
       committed_(other.committed_),
       file_(std::exchange(other.file_, -1)),
       lock_fd_(std::exchange(other.lock_fd_, -1)),
       tmp_slot_(std::exchange(other.tmp_slot_, -1)),
-      new_slot_(std::exchange(other.new_slot_, -1)) {
+      publish_slot_(std::exchange(other.publish_slot_, -1)) {
   other.committed_ = true;  // the moved-from writer owns no file and must not remove one
 }
 
@@ -479,7 +506,7 @@ void H5Writer::commit() {
   committed_ = true;
   if (lock_fd_ >= 0) close(std::exchange(lock_fd_, -1));
   unregisterTmp(std::exchange(tmp_slot_, -1));
-  unregisterTmp(std::exchange(new_slot_, -1));
+  unregisterTmp(std::exchange(publish_slot_, -1));
 }
 
 }  // namespace minv

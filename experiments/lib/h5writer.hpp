@@ -10,22 +10,23 @@
 //     before (Python keeps its own SIGINT).
 //   * H5Writer::append(path) adds to `path` (or creates it), for sweeps that write each point
 //     when it finishes and resume after a kill: write a point between beginPoint(name) and
-//     endPoint(name). The writer works on a copy, `path + ".tmp"`, which it holds locked
-//     (flock) for its life: a second writer of the same file is refused ("another process is
-//     appending to …") and touches nothing. flush(), which endPoint() calls, publishes the
-//     copy: flushes it, copies it to `path + ".new"` and renames that over `path`. So `path` is
-//     always a whole file as the last publication left it: a kill, a full disk or a crash in
-//     the middle of a point loses that point only (written in place, a kill could leave an HDF5
-//     file unreadable, every point in it lost), and the tmp files are removed as in create
-//     mode (a SIGKILLed writer's stale copy is replaced by the next). commit() closes the copy
-//     and renames it to `path`. A point's data go to a staging group "<name>.partial", which
-//     endPoint() renames to <name>, so hasGroup(name) is true only for finished points;
-//     beginPoint() drops a staging group that an older, in-place run left behind. An existing
-//     `path` is first read whole, and the first writes tried on a copy, in a child process
-//     (isolate.hpp: requireUndamaged), so that a damaged file is an error, not a crash. A
-//     symbolic link `path` publishes to its target. Each point copies the file once (1270
-//     points of the quick timing sweep, up to 7 MB: a few seconds in all), and power loss is
-//     not covered (no fsync).
+//     endPoint(name). The writer works on a copy, `path + ".append.tmp"`, which it holds locked
+//     (an open-file-description lock) for its life: a second appending writer of the same file
+//     is refused ("another process is appending to …") and touches nothing; a create-mode
+//     writer of the same path writes its own `path + ".tmp"`. flush(), which endPoint() calls,
+//     publishes the copy: flushes it, copies it to `path + ".publish.tmp"` and renames that over
+//     `path`. So `path` is always a whole file as the last publication left it: a kill, a full
+//     disk or a crash in the middle of a point loses that point only (written in place, a kill
+//     could leave an HDF5 file unreadable, every point in it lost), and the tmp files are
+//     removed as in create mode (a SIGKILLed writer's stale copy is replaced by the next).
+//     commit() closes the copy and renames it to `path`. A point's data go to a staging group
+//     "<name>.partial", which endPoint() renames to <name>, so hasGroup(name) is true only for
+//     finished points; beginPoint() drops a staging group that an older, in-place run left
+//     behind. An existing `path` is first read whole, and the first writes tried on a copy, in
+//     a child process (isolate.hpp: requireUndamaged), so that a damaged file is an error, not
+//     a crash. A symbolic link `path` publishes to its target. Each point copies the file once
+//     (1270 points of the quick timing sweep, up to 7 MB: a few seconds in all), and power loss
+//     is not covered (no fsync).
 //   * Object paths are "/"-separated and relative to the root ("a/b" = "/a/b"); writing a
 //     dataset creates the missing groups on its path.
 //   * Layout: a matrix is stored row-major as [rows, cols], so h5py reads M[i, j] = M(i, j);
@@ -68,7 +69,8 @@ class H5Writer {
   // publication put there).
   ~H5Writer();
 
-  // The final path, and the path actually being written (path + ".tmp").
+  // The final path, and the path actually being written (path + ".tmp"; in append mode
+  // path + ".append.tmp").
   const std::string& path() const { return path_; }
   const std::string& writingPath() const { return file_path_; }
   bool appendMode() const { return append_; }
@@ -117,6 +119,7 @@ class H5Writer {
   void requireOpen(const char* what) const;
   hid_t openWorkingCopy(bool create) const;
   void copyFile(const std::string& from, const std::string& to) const;
+  void lockWorkingCopy();
   void publish();
   void abandon();
   void writeDataset(const std::string& dataset, hid_t file_type, hid_t mem_type,
@@ -125,12 +128,12 @@ class H5Writer {
                       hid_t mem_type, const void* data);
   [[noreturn]] void fail(const std::string& what, const std::string& object) const;
 
-  std::string path_, file_path_;
+  std::string path_, file_path_, publish_path_;
   bool append_ = false, committed_ = false;
   hid_t file_ = -1;
-  int lock_fd_ = -1;   // append mode: the working copy, locked
-  int tmp_slot_ = -1;  // the tmp file's slot in the signal handler's table
-  int new_slot_ = -1;  // append mode: the publication's copy's slot
+  int lock_fd_ = -1;       // append mode: the working copy, locked
+  int tmp_slot_ = -1;      // the tmp file's slot in the signal handler's table
+  int publish_slot_ = -1;  // append mode: the publication copy's slot
 };
 
 }  // namespace minv

@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <hdf5.h>
+#include <poll.h>
 #include <signal.h>
 #include <sys/prctl.h>
 #include <sys/resource.h>
@@ -9,7 +10,9 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <chrono>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <stdexcept>
@@ -46,10 +49,9 @@ void sendRecord(Tag tag, const std::string& text) {
 // The child: killed with its parent, every signal unblocked, default actions for the signals a
 // crash raises (a host's handler, Python's faulthandler or our tmp-file cleanup, is the parent's
 // business), none of the parent's tmp files or other descriptors, stderr on /dev/null (glibc's
-// and a sanitizer's reports of the crash), no core file, a time limit; then the work, its
-// outcome as the last record, and _exit.
-[[noreturn]] void runChild(int fd, pid_t parent, unsigned seconds,
-                           const std::function<std::string()>& work) {
+// and a sanitizer's reports of the crash), no core file; then the work, its outcome as the last
+// record, and _exit.
+[[noreturn]] void runChild(int fd, pid_t parent, const std::function<std::string()>& work) {
   prctl(PR_SET_PDEATHSIG, SIGKILL);
   if (getppid() != parent) _exit(1);  // the parent died before the line above
   inChild = true;
@@ -57,7 +59,7 @@ void sendRecord(Tag tag, const std::string& text) {
   sigset_t none;
   sigemptyset(&none);
   sigprocmask(SIG_SETMASK, &none, nullptr);
-  for (const int sig : {SIGSEGV, SIGBUS, SIGABRT, SIGFPE, SIGILL, SIGALRM}) signal(sig, SIG_DFL);
+  for (const int sig : {SIGSEGV, SIGBUS, SIGABRT, SIGFPE, SIGILL}) signal(sig, SIG_DFL);
   forgetInheritedTmpFiles();
   if (fd > 3) close_range(3, fd - 1, 0);
   close_range(fd + 1, ~0U, 0);
@@ -65,7 +67,6 @@ void sendRecord(Tag tag, const std::string& text) {
   if (null >= 0) dup2(null, 2), close(null);
   const struct rlimit no_core { 0, 0 };
   setrlimit(RLIMIT_CORE, &no_core);
-  alarm(seconds);
   try {
     sendRecord(kResult, work());
   } catch (const std::invalid_argument& e) {
@@ -78,25 +79,27 @@ void sendRecord(Tag tag, const std::string& text) {
   _exit(0);
 }
 
-// Every record the child sent, read until it closes the pipe.
-std::vector<std::pair<char, std::string>> readRecords(int fd) {
-  std::string bytes;
-  char buf[4096];
-  for (;;) {
-    const ssize_t r = read(fd, buf, sizeof buf);
-    if (r < 0 && errno == EINTR) continue;
-    if (r <= 0) break;
-    bytes.append(buf, static_cast<std::size_t>(r));
-  }
+// Records from the bytes the child sent (a record cut off by a crash is dropped).
+std::vector<std::pair<char, std::string>> parseRecords(const std::string& bytes) {
   std::vector<std::pair<char, std::string>> records;
   for (std::size_t at = 0; at + 5 <= bytes.size();) {
     std::uint32_t n;
     std::memcpy(&n, bytes.data() + at + 1, sizeof n);
-    if (at + 5 + n > bytes.size()) break;  // cut off by a crash
+    if (at + 5 + n > bytes.size()) break;
     records.emplace_back(bytes[at], bytes.substr(at + 5, n));
     at += 5 + n;
   }
   return records;
+}
+
+// Resident memory of a process in bytes (0 if unknown).
+std::uint64_t residentBytes(pid_t pid) {
+  FILE* f = std::fopen(("/proc/" + std::to_string(pid) + "/statm").c_str(), "r");
+  if (!f) return 0;
+  unsigned long long size = 0, resident = 0;
+  const int got = std::fscanf(f, "%llu %llu", &size, &resident);
+  std::fclose(f);
+  return got == 2 ? resident * static_cast<std::uint64_t>(sysconf(_SC_PAGESIZE)) : 0;
 }
 
 // "SIGSEGV", or the number.
@@ -160,8 +163,8 @@ herr_t readOneObject(hid_t file, const char* name, const H5O_info_t* info, void*
 
 // Every object reachable from the root, its attributes and its values.
 void readWholeFile(const std::string& path) {
-  silenceHdf5Errors();
   noteReading(path);
+  silenceHdf5Errors();
   Id file{H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose};
   if (file < 0) return;
   H5Ovisit2(file, H5_INDEX_NAME, H5_ITER_INC, readOneObject, nullptr, H5O_INFO_BASIC);
@@ -188,21 +191,49 @@ void trialWrite(const std::string& copy) {
   }
 }
 
-// What a child did: its exit status and the records it sent.
+// What a child did: its exit status (or the limit it was stopped at) and the records it sent.
 struct Outcome {
   int status = 0;
+  std::string stopped;  // "" or why the parent killed it
   std::vector<std::pair<char, std::string>> records;
   // It returned or threw (its last record says which)
   bool finished() const {
-    return WIFEXITED(status) && WEXITSTATUS(status) == 0 && !records.empty() &&
+    return stopped.empty() && WIFEXITED(status) && WEXITSTATUS(status) == 0 && !records.empty() &&
            records.back().first != kReading;
   }
 };
 
-// `work` in a fork of this process.
-Outcome runForked(const std::function<std::string()>& work, unsigned seconds) {
+// The limits of a child that reads `files`: 10 s and 1 s more per 10 MB; 1 GiB of memory and 16
+// bytes more per byte of the files, beyond what the parent holds (a damaged file made HDF5
+// allocate 12.5 GB in 10 s).
+struct Limits {
+  unsigned seconds;
+  std::uint64_t bytes;
+};
+Limits limitsFor(const std::vector<std::string>& files) {
+  std::uintmax_t size = 0;
+  for (const std::string& f : files) {
+    std::error_code ec;
+    const std::uintmax_t s = std::filesystem::file_size(f, ec);
+    if (!ec) size += s;
+  }
+  return {static_cast<unsigned>(10 + std::min<std::uintmax_t>(size / 10000000, 3600)),
+          residentBytes(getpid()) + (std::uint64_t(1) << 30) + 16 * std::uint64_t(size)};
+}
+
+// `work` in a fork of this process, watched: killed past its time or its memory.
+Outcome runForked(const std::function<std::string()>& work, const Limits& limits) {
   int fds[2];
   if (pipe2(fds, O_CLOEXEC) != 0)
+    throw std::runtime_error(std::string("cannot make a pipe: ") + std::strerror(errno));
+  // Both ends above stderr (a parent without stdio could get 0-2)
+  for (int& fd : fds)
+    if (fd <= 2) {
+      const int high = fcntl(fd, F_DUPFD_CLOEXEC, 3);
+      close(fd);
+      fd = high;
+    }
+  if (fds[0] < 0 || fds[1] < 0)
     throw std::runtime_error(std::string("cannot make a pipe: ") + std::strerror(errno));
   const pid_t self = getpid(), pid = fork();
   if (pid < 0) {
@@ -211,76 +242,99 @@ Outcome runForked(const std::function<std::string()>& work, unsigned seconds) {
   }
   if (pid == 0) {
     close(fds[0]);
-    runChild(fds[1], self, seconds, work);
+    runChild(fds[1], self, work);
   }
   close(fds[1]);
+  // Its records until it closes the pipe; every 50 ms its time and memory checked
   Outcome o;
-  o.records = readRecords(fds[0]);
+  std::string bytes;
+  const auto start = std::chrono::steady_clock::now();
+  for (;;) {
+    pollfd p{fds[0], POLLIN, 0};
+    const int ready = poll(&p, 1, 50);
+    if (ready > 0) {
+      char buf[4096];
+      const ssize_t r = read(fds[0], buf, sizeof buf);
+      if (r < 0 && errno == EINTR) continue;
+      if (r <= 0) break;
+      bytes.append(buf, static_cast<std::size_t>(r));
+      continue;
+    }
+    if (ready < 0 && errno != EINTR) break;
+    const double elapsed =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (elapsed > limits.seconds)
+      o.stopped = "reading it did not end within " + std::to_string(limits.seconds) + " s";
+    else if (const std::uint64_t rss = residentBytes(pid); rss > limits.bytes)
+      o.stopped =
+          "reading it took more than " + std::to_string(limits.bytes >> 20) + " MiB of memory";
+    if (!o.stopped.empty()) {
+      kill(pid, SIGKILL);
+      break;
+    }
+  }
   close(fds[0]);
+  o.records = parseRecords(bytes);
   pid_t waited;
   while ((waited = waitpid(pid, &o.status, 0)) < 0 && errno == EINTR) {
   }
-  if (waited != pid)
-    throw std::runtime_error(std::string("cannot wait for the process that reads the file: ") +
-                             std::strerror(errno));
+  // A host that ignores SIGCHLD reaps it itself: the records tell how it ended
+  if (waited != pid) o.status = 0;
   return o;
 }
 
-// A crash, a hang or an exit without an outcome: what the child was reading is damaged.
-[[noreturn]] void reportDamage(const Outcome& o, unsigned seconds,
+// A crash, a hang, too much memory or an exit without an outcome: what the child was reading
+// is damaged. Signals that are not a crash's (a file-size limit, the OOM killer, a kill by
+// hand) say so instead.
+[[noreturn]] void reportDamage(const Outcome& o, const std::vector<std::string>& files,
                                const std::vector<std::string>& remove_on_crash) {
   for (const std::string& f : remove_on_crash) unlink(f.c_str());
   std::string file;
   for (const auto& [tag, text] : o.records)
     if (tag == kReading) file = text;
-  std::string how;
-  if (WIFSIGNALED(o.status) && WTERMSIG(o.status) == SIGALRM)
-    how = "reading it did not end within " + std::to_string(seconds) + " s";
-  else if (WIFSIGNALED(o.status))
-    how = "HDF5 crashed on it (" + signalName(WTERMSIG(o.status)) + ")";
-  else
+  if (file.empty() && files.size() == 1) file = files[0];
+  const std::string what = file.empty() ? std::string("a result file") : "'" + file + "'";
+  const int sig = WIFSIGNALED(o.status) ? WTERMSIG(o.status) : 0;
+  std::string how = o.stopped;
+  if (how.empty() && sig != 0) {
+    if (sig != SIGSEGV && sig != SIGBUS && sig != SIGABRT && sig != SIGFPE && sig != SIGILL)
+      throw std::runtime_error("the process reading " + what + " was killed by " + signalName(sig) +
+                               "; nothing was written");
+    how = "HDF5 crashed on it (" + signalName(sig) + ")";
+  } else if (how.empty()) {
     how = "reading it ended without a result (exit " + std::to_string(WEXITSTATUS(o.status)) + ")";
-  throw std::runtime_error((file.empty() ? std::string("a result file") : "'" + file + "'") +
-                           " is damaged: " + how +
+  }
+  throw std::runtime_error(what + " is damaged: " + how +
                            " in a child process that read it first; nothing was written");
 }
 
 }  // namespace
 
-unsigned childSeconds(const std::vector<std::string>& files) {
-  std::uintmax_t bytes = 0;
-  for (const std::string& f : files) {
-    std::error_code ec;
-    const std::uintmax_t size = std::filesystem::file_size(f, ec);
-    if (!ec) bytes += size;
-  }
-  return static_cast<unsigned>(10 + std::min<std::uintmax_t>(bytes / 10000000, 3600));
-}
-
 void noteReading(const std::string& path) {
   if (inChild) sendRecord(kReading, path);
 }
 
-std::string inChildProcess(const std::function<std::string()>& work, unsigned seconds,
+std::string inChildProcess(const std::function<std::string()>& work,
+                           const std::vector<std::string>& files,
                            const std::vector<std::string>& remove_on_crash) {
   if (inChild) return work();
-  const Outcome o = runForked(work, seconds);
-  if (!o.finished()) reportDamage(o, seconds, remove_on_crash);
+  const Outcome o = runForked(work, limitsFor(files));
+  if (!o.finished()) reportDamage(o, files, remove_on_crash);
   const auto& [tag, text] = o.records.back();
   if (tag == kInvalid) throw std::invalid_argument(text);
   if (tag == kError) throw std::runtime_error(text);
   return text;
 }
 
-bool vetInChildProcess(const std::function<void()>& work, unsigned seconds) {
+bool vetInChildProcess(const std::function<void()>& work, const std::vector<std::string>& files) {
   if (inChild) return true;
   const Outcome o = runForked(
       [&] {
         work();
         return std::string();
       },
-      seconds);
-  if (!o.finished()) reportDamage(o, seconds, {});
+      limitsFor(files));
+  if (!o.finished()) reportDamage(o, files, {});
   return o.records.back().first == kResult;
 }
 
@@ -290,7 +344,7 @@ void requireUndamaged(const std::string& path, const std::string& scratch_copy) 
         readWholeFile(path);
         if (!scratch_copy.empty()) trialWrite(scratch_copy);
       },
-      childSeconds({path}));
+      {path});
 }
 
 }  // namespace minv

@@ -9,32 +9,36 @@
 // becomes an exception here, and the process lives on.
 //
 // Contract:
-//   * inChildProcess(work, seconds, remove_on_crash) runs `work` in a fork of this process and
+//   * inChildProcess(work, files, remove_on_crash) runs `work` in a fork of this process and
 //     returns the string it returned there; an exception thrown by `work` is thrown here again
 //     with its message (std::invalid_argument as std::invalid_argument, anything else as
-//     std::runtime_error). vetInChildProcess(work, seconds) runs `work` there only to see that
-//     it ends: it returns whether `work` returned or threw, and the caller then does the work
-//     itself (so its exceptions keep their types).
-//   * If the child dies of a signal or runs past `seconds`, the files in `remove_on_crash` are
-//     removed and std::runtime_error says which file the child was reading (noteReading) and
-//     how it ended: "'f.h5' is damaged: HDF5 crashed on it (SIGSEGV) …".
+//     std::runtime_error). vetInChildProcess(work, files) runs `work` there only to see that it
+//     ends: it returns whether `work` returned or threw, and the caller then does the work
+//     itself (so its exceptions keep their types; the child's limits bound what that costs).
+//   * `files` are the files the work reads. The child may take 10 s, and 1 s more per 10 MB of
+//     them, and 1 GiB of memory, and 16 bytes more per byte of them, beyond what this process
+//     holds (a damaged file made HDF5 allocate 12.5 GB in 10 s); the parent polls it every
+//     50 ms and kills it past either limit.
+//   * If the child crashes (SIGSEGV, SIGBUS, SIGABRT, SIGFPE, SIGILL) or is stopped at a limit,
+//     the files in `remove_on_crash` are removed and std::runtime_error says which file it was
+//     reading (noteReading, else the one file of `files`) and how it ended: "'f.h5' is
+//     damaged: HDF5 crashed on it (SIGSEGV) …". Killed by another signal (a file-size limit,
+//     the OOM killer), it says that instead.
 //   * The child dies with its parent and ends with _exit (no exit handlers, no flush of files
 //     that the parent has open). It starts with every signal unblocked and a crash's signals at
 //     their default actions, without the parent's other file descriptors (a pipe of a second
 //     child among them), without the parent's tmp files in its signal handler's table, and
 //     with stderr on /dev/null. Inside a child, `work` runs in place.
-//   * childSeconds(files): the time a child may take to read `files`: 10 s, and 1 s more per
-//     10 MB (the harness's largest result files take well under a second).
 //   * noteReading(path): `work` names the file it opens next (a no-op outside a child).
 //   * requireUndamaged(path, scratch_copy): reads every group, attribute and dataset of the HDF5
 //     file `path` in a child process and, given a scratch copy of it, adds a group and an
 //     attribute to that copy (the writes an append begins with); throws as above if that
-//     crashes or hangs. An HDF5 error there is not a crash and passes (the caller's own read
-//     reports it).
+//     crashes, hangs or runs away with memory. An HDF5 error there is not damage and passes
+//     (the caller's own read reports it).
 //   * After fork in a process with other threads, the child can only use what no other thread
 //     held at that moment: a host process (Python) whose other thread was inside HDF5 (built
 //     thread-safe on Debian, with one lock) leaves the child waiting until its time ends, and
-//     the file is then reported damaged.
+//     the file is then reported damaged. (Python's read_points keeps the GIL for that reason.)
 #pragma once
 
 #include <functional>
@@ -43,10 +47,10 @@
 
 namespace minv {
 
-unsigned childSeconds(const std::vector<std::string>& files);
-std::string inChildProcess(const std::function<std::string()>& work, unsigned seconds,
+std::string inChildProcess(const std::function<std::string()>& work,
+                           const std::vector<std::string>& files,
                            const std::vector<std::string>& remove_on_crash = {});
-bool vetInChildProcess(const std::function<void()>& work, unsigned seconds);
+bool vetInChildProcess(const std::function<void()>& work, const std::vector<std::string>& files);
 void noteReading(const std::string& path);
 void requireUndamaged(const std::string& path, const std::string& scratch_copy = "");
 
