@@ -12,6 +12,7 @@
 #include <csignal>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <random>
 #include <regex>
 
@@ -486,6 +487,58 @@ TEST(H5Writer, AppendModeHasOneWriterAndFollowsLinks) {
   File f(path);
   EXPECT_EQ(readData<double>(f, "p0/x", H5T_NATIVE_DOUBLE).size(), 4u);
   EXPECT_EQ(readData<double>(f, "p1/x", H5T_NATIVE_DOUBLE).size(), 9u);
+}
+
+// A flipped bit in an attribute's value is an error on reading, not another value: the writer's
+// objects carry checksums (the HDF5 1.8 format). Appending to a file in the earliest format
+// (the committed results before 2026-12-07) works too.
+TEST(H5Writer, MetadataCarriesChecksums) {
+  H5Dir dir;
+  const std::string path = dir / "sum.h5";
+  const std::int64_t value = 0x0123456789abcdefLL;
+  {
+    H5Writer w(path);
+    w.createGroup("points/p");
+    w.setAttribute("points/p", "n", value);
+    w.commit();
+  }
+  std::string bytes;
+  {
+    std::ifstream in(path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  const std::size_t at = bytes.find(std::string(reinterpret_cast<const char*>(&value), 8));
+  ASSERT_NE(at, std::string::npos);
+  bytes[at + 3] ^= 0x10;
+  std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  const hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  std::int64_t read = value;
+  bool failed = f < 0;
+  if (!failed) {
+    const hid_t a = H5Aopen_by_name(f, "points/p", "n", H5P_DEFAULT, H5P_DEFAULT);
+    failed = a < 0 || H5Aread(a, H5T_NATIVE_INT64, &read) < 0;
+    if (a >= 0) H5Aclose(a);
+    H5Fclose(f);
+  }
+  EXPECT_TRUE(failed) << "the flipped value was read as " << read;
+  // An earliest-format file takes new points
+  const std::string old = dir / "old.h5";
+  {
+    const hid_t o = H5Fcreate(old.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+    const hid_t g = H5Gcreate2(o, "points", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+    H5Gclose(g);
+    H5Fclose(o);
+  }
+  {
+    H5Writer w = H5Writer::append(old);
+    const std::string g = w.beginPoint("points/q");
+    w.writeVector(g + "/t", Eigen::VectorXd::Constant(3, 1.5));
+    w.endPoint("points/q");
+    w.commit();
+  }
+  File o(old);
+  EXPECT_EQ(readData<double>(o, "points/q/t", H5T_NATIVE_DOUBLE), std::vector<double>(3, 1.5));
 }
 
 // A create-mode run killed by SIGTERM, SIGINT, SIGHUP or aborted (no destructors) leaves no tmp

@@ -29,6 +29,8 @@
 //     is not covered (no fsync).
 //   * Object paths are "/"-separated and relative to the root ("a/b" = "/a/b"); writing a
 //     dataset creates the missing groups on its path.
+//   * Format: HDF5 1.8 objects (superblock 2), whose metadata carry checksums (HDF5 and h5py
+//     1.8 on read them); an earlier file appended to keeps its old objects.
 //   * Layout: a matrix is stored row-major as [rows, cols], so h5py reads M[i, j] = M(i, j);
 //     doubles as IEEE float64, integers as int64 (a uint64 attribute as uint64), strings as
 //     variable-length UTF-8 (datasets and attributes). A dataset is written once (writing it
