@@ -19,16 +19,6 @@ namespace minv {
 
 namespace {
 
-struct Hid {
-  hid_t id;
-  herr_t (*close)(hid_t);
-  Hid(hid_t i, herr_t (*c)(hid_t)) : id(i), close(c) {}
-  ~Hid() {
-    if (id >= 0) close(id);
-  }
-  operator hid_t() const { return id; }
-};
-
 [[noreturn]] void readFail(const std::string& what, const std::string& file) {
   throw std::runtime_error("cannot " + what + " in " + file);
 }

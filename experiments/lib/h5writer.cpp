@@ -77,23 +77,6 @@ void unregisterTmp(int slot) {
   if (slot >= 0) tmpSlots[slot].used.store(false, std::memory_order_release);
 }
 
-// An HDF5 identifier closed by its own close function when it goes out of scope.
-class Hid {
- public:
-  Hid(hid_t id, herr_t (*close)(hid_t)) : id_(id), close_(close) {}
-  Hid(const Hid&) = delete;
-  Hid& operator=(const Hid&) = delete;
-  ~Hid() {
-    if (id_ >= 0) close_(id_);
-  }
-  operator hid_t() const { return id_; }
-  bool ok() const { return id_ >= 0; }
-
- private:
-  hid_t id_;
-  herr_t (*close_)(hid_t);
-};
-
 // HDF5's innermost error description (where the failure was detected); clears the stack.
 std::string hdf5Message() {
   std::string msg;

@@ -56,6 +56,24 @@ void silenceHdf5Errors();
 // alone does not remove them.
 void forgetInheritedTmpFiles();
 
+// An HDF5 identifier closed by its own close function when it goes out of scope (the writer's,
+// the reader's and the child's reads in isolate.cpp).
+class Hid {
+ public:
+  Hid(hid_t id, herr_t (*close)(hid_t)) : id_(id), close_(close) {}
+  Hid(const Hid&) = delete;
+  Hid& operator=(const Hid&) = delete;
+  ~Hid() {
+    if (id_ >= 0) close_(id_);
+  }
+  operator hid_t() const { return id_; }
+  bool ok() const { return id_ >= 0; }
+
+ private:
+  hid_t id_;
+  herr_t (*close_)(hid_t);
+};
+
 class H5Writer {
  public:
   // Create mode: write to path + ".tmp", renamed to path by commit().

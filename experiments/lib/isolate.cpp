@@ -112,20 +112,11 @@ std::string signalName(int sig) {
 
 constexpr std::size_t kMaxReadBytes = std::size_t(256) << 20;  // larger values are not read
 
-struct Id {
-  hid_t id;
-  herr_t (*close)(hid_t);
-  ~Id() {
-    if (id >= 0) close(id);
-  }
-  operator hid_t() const { return id; }
-};
-
 // Read `count` values of file type `type` through its native type, variable-length parts
 // reclaimed; `read` reads into a buffer in a memory type.
 template <class Read>
 void readValues(hid_t type, hid_t space, Read&& read) {
-  Id mem{H5Tget_native_type(type, H5T_DIR_ASCEND), H5Tclose};
+  Hid mem{H5Tget_native_type(type, H5T_DIR_ASCEND), H5Tclose};
   const hssize_t count = H5Sget_simple_extent_npoints(space);
   if (mem < 0 || count <= 0) return;
   const std::size_t size = H5Tget_size(mem);
@@ -138,22 +129,22 @@ void readValues(hid_t type, hid_t space, Read&& read) {
 }
 
 herr_t readOneAttribute(hid_t obj, const char* name, const H5A_info_t*, void*) {
-  Id a{H5Aopen(obj, name, H5P_DEFAULT), H5Aclose};
+  Hid a{H5Aopen(obj, name, H5P_DEFAULT), H5Aclose};
   if (a < 0) return 0;
-  Id type{H5Aget_type(a), H5Tclose};
-  Id space{H5Aget_space(a), H5Sclose};
+  Hid type{H5Aget_type(a), H5Tclose};
+  Hid space{H5Aget_space(a), H5Sclose};
   if (type >= 0 && space >= 0)
     readValues(type, space, [&](hid_t mem, void* buf) { return H5Aread(a, mem, buf); });
   return 0;
 }
 
 herr_t readOneObject(hid_t file, const char* name, const H5O_info_t* info, void*) {
-  Id obj{H5Oopen(file, name, H5P_DEFAULT), H5Oclose};
+  Hid obj{H5Oopen(file, name, H5P_DEFAULT), H5Oclose};
   if (obj < 0) return 0;
   H5Aiterate2(obj, H5_INDEX_NAME, H5_ITER_INC, nullptr, readOneAttribute, nullptr);
   if (info->type != H5O_TYPE_DATASET) return 0;
-  Id type{H5Dget_type(obj), H5Tclose};
-  Id space{H5Dget_space(obj), H5Sclose};
+  Hid type{H5Dget_type(obj), H5Tclose};
+  Hid space{H5Dget_space(obj), H5Sclose};
   if (type >= 0 && space >= 0)
     readValues(type, space, [&](hid_t mem, void* buf) {
       return H5Dread(obj, mem, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf);
@@ -165,7 +156,7 @@ herr_t readOneObject(hid_t file, const char* name, const H5O_info_t* info, void*
 void readWholeFile(const std::string& path) {
   noteReading(path);
   silenceHdf5Errors();
-  Id file{H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose};
+  Hid file{H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose};
   if (file < 0) return;
   H5Ovisit2(file, H5_INDEX_NAME, H5_ITER_INC, readOneObject, nullptr, H5O_INFO_BASIC);
 }
@@ -173,19 +164,19 @@ void readWholeFile(const std::string& path) {
 // The writes an append begins with, on a scratch copy (which the parent holds locked: HDF5's
 // own lock is off): a group with a string attribute at the root and in "points".
 void trialWrite(const std::string& copy) {
-  Id fapl{H5Pcreate(H5P_FILE_ACCESS), H5Pclose};
+  Hid fapl{H5Pcreate(H5P_FILE_ACCESS), H5Pclose};
   if (fapl < 0 || H5Pset_file_locking(fapl, false, true) < 0) return;
-  Id file{H5Fopen(copy.c_str(), H5F_ACC_RDWR, fapl), H5Fclose};
+  Hid file{H5Fopen(copy.c_str(), H5F_ACC_RDWR, fapl), H5Fclose};
   if (file < 0) return;
   for (const char* parent : {"/", "/points"}) {
     if (std::strcmp(parent, "/") != 0 && H5Lexists(file, parent, H5P_DEFAULT) <= 0) continue;
     const std::string name = std::string(parent) + (parent[1] ? "/" : "") + "minv-trial-write";
-    Id g{H5Gcreate2(file, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose};
+    Hid g{H5Gcreate2(file, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose};
     if (g < 0) continue;
-    Id type{H5Tcopy(H5T_C_S1), H5Tclose};
-    Id space{H5Screate(H5S_SCALAR), H5Sclose};
+    Hid type{H5Tcopy(H5T_C_S1), H5Tclose};
+    Hid space{H5Screate(H5S_SCALAR), H5Sclose};
     if (type < 0 || space < 0 || H5Tset_size(type, H5T_VARIABLE) < 0) continue;
-    Id a{H5Acreate2(g, "trial", type, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose};
+    Hid a{H5Acreate2(g, "trial", type, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose};
     const char* text = "trial";
     if (a >= 0) H5Awrite(a, type, &text);
   }
