@@ -409,11 +409,11 @@ std::map<std::string, PointRecord> pointsHere(const std::string& path) {
 
 }  // namespace
 
+SweepSetting::SweepSetting(std::string n, double v) : name(std::move(n)), text(formatNumber(v)) {}
+
 // Each reads in a child process first (experiments/lib/isolate.hpp): a damaged file that
 // crashes HDF5 there is an exception here; if the child ends, the reading is done again here
 // (its exceptions keep their types). Merge runs whole in the child, which writes `out`.
-SweepSetting::SweepSetting(std::string n, double v) : name(std::move(n)), text(formatNumber(v)) {}
-
 void requireSameSettings(const std::string& path, const std::string& option,
                          const std::vector<SweepSetting>& settings,
                          const std::vector<std::string>& objects) {
