@@ -41,9 +41,9 @@ PYBIND11_MODULE(_minv, m) {
 
   // Exceptions: ModelError is a ValueError; a Python interrupt travels through C++ as itself.
   static py::exception<minv::ModelError> model_error(m, "ModelError", PyExc_ValueError);
-  // HDF5 told, before its first call here, not to close itself at exit (where a file whose
-  // write failed made it crash): experiments/lib/h5writer.cpp. Where h5py started HDF5 before
-  // `import minv`, HDF5 no longer takes it, and such a crash at exit remains possible.
+  // HDF5's error printing off (experiments/lib/h5writer.cpp). Its close at exit, where a file
+  // whose flush had failed made it crash, is harmless now that the writer's files are built in
+  // memory and written by the writer (HDF5 no longer takes that order after h5py started it).
   minv::silenceHdf5Errors();
   // This module's exceptions only (a local translator: another module's stay its own).
   py::register_local_exception_translator([](std::exception_ptr p) {

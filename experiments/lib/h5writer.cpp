@@ -7,8 +7,10 @@
 #include <atomic>
 #include <cerrno>
 #include <csignal>
+#include <cstdint>
 #include <cstring>
 #include <filesystem>
+#include <memory>
 #include <mutex>
 #include <stdexcept>
 #include <system_error>
@@ -138,10 +140,60 @@ hid_t utf8StringType() {
   return t;
 }
 
+// Bob Jenkins' lookup3 hash ("hashlittle", initial value 0): the checksum of HDF5 1.8-format
+// metadata (HDF5 File Format Specification, "Checksum"); bytes read little-endian, 12 at a time.
+std::uint32_t lookup3(const unsigned char* k, std::size_t length) {
+  auto rot = [](std::uint32_t x, int r) { return (x << r) | (x >> (32 - r)); };
+  auto word = [&](std::size_t at, std::size_t left) {
+    std::uint32_t w = 0;
+    for (std::size_t i = 0; i < 4 && i < left; ++i) w |= std::uint32_t(k[at + i]) << (8 * i);
+    return w;
+  };
+  std::uint32_t a, b, c;
+  a = b = c = 0xdeadbeefu + static_cast<std::uint32_t>(length);
+  // every whole 12 bytes but the last: add and mix
+  std::size_t at = 0;
+  for (; length - at > 12; at += 12) {
+    a += word(at, 4), b += word(at + 4, 4), c += word(at + 8, 4);
+    a -= c, a ^= rot(c, 4), c += b;
+    b -= a, b ^= rot(a, 6), a += c;
+    c -= b, c ^= rot(b, 8), b += a;
+    a -= c, a ^= rot(c, 16), c += b;
+    b -= a, b ^= rot(a, 19), a += c;
+    c -= b, c ^= rot(b, 4), b += a;
+  }
+  // the last 1 to 12 bytes (zero-padded), then the final mix
+  const std::size_t left = length - at;
+  if (left == 0) return c;
+  a += word(at, left), b += left > 4 ? word(at + 4, left - 4) : 0;
+  c += left > 8 ? word(at + 8, left - 8) : 0;
+  c ^= b, c -= rot(b, 14);
+  a ^= c, a -= rot(c, 11);
+  b ^= a, b -= rot(a, 25);
+  c ^= b, c -= rot(b, 16);
+  a ^= c, a -= rot(c, 4);
+  b ^= a, b -= rot(a, 14);
+  c ^= b, c -= rot(b, 24);
+  return c;
+}
+
+// H5Fget_file_image (HDF5 1.10) clears a version 2 or 3 superblock's status flags in the image
+// but keeps the checksum of the flags set, so that HDF5 refuses to open it ("incorrect metadata
+// checksum"): the superblock's checksum made again. Its layout: signature (8 bytes), version,
+// size of offsets O, size of lengths, flags, four addresses of O bytes, checksum.
+void resealSuperblock(unsigned char* image, std::size_t size) {
+  static constexpr unsigned char kSignature[8] = {0x89, 'H', 'D', 'F', '\r', '\n', 0x1a, '\n'};
+  if (size < 12 || std::memcmp(image, kSignature, 8) != 0 || (image[8] != 2 && image[8] != 3))
+    return;
+  const std::size_t body = 12 + 4 * std::size_t(image[9]);
+  if (body + 4 > size) return;
+  const std::uint32_t sum = lookup3(image, body);
+  for (int i = 0; i < 4; ++i) image[body + i] = static_cast<unsigned char>(sum >> (8 * i));
+}
+
 }  // namespace
 
-// Before HDF5's first call: no close of the library at exit, where a file whose write failed
-// (a full disk) made HDF5 crash while closing it again; every file is closed explicitly.
+// Before HDF5's first call: no close of the library at exit (every file is closed explicitly).
 void silenceHdf5Errors() {
   static std::once_flag once;
   std::call_once(once, [] { H5dont_atexit(); });
@@ -171,6 +223,11 @@ H5Writer::H5Writer(const std::string& path, bool append)
     // Create mode: the tmp file, known to the signal handler before it exists
     tmp_slot_ = registerTmp(std::filesystem::absolute(file_path_, ec).string());
     try {
+      // (the tmp file made empty now, so that a place that cannot be written fails here)
+      const int fd = open(file_path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+      if (fd < 0)
+        throw std::runtime_error("cannot create " + file_path_ + ": " + std::strerror(errno));
+      close(fd);
       file_ = openWorkingCopy(true);
     } catch (...) {
       unregisterTmp(std::exchange(tmp_slot_, -1));
@@ -243,14 +300,17 @@ void H5Writer::lockWorkingCopy() {
   throw std::runtime_error("cannot lock " + file_path_ + ": it keeps being replaced");
 }
 
-// Create mode's file, or append mode's working copy: HDF5's own lock off there (the writer
-// holds its own), strong close degree (closing the file closes anything still open in it), and
-// objects in the HDF5 1.8 format, whose metadata carry checksums: with one to two random bytes
-// flipped, h5py read a file of 6 groups of 25 attributes with a silently different value in 8
-// of 250 trials and crashed in 5, against 37 and 22 in the earliest format.
+// Create mode's file, or append mode's working copy, opened in memory: the core driver without
+// a backing store (the file's image goes to disk in writeImage, by this writer's own writes);
+// HDF5's own lock off there (the writer holds its own), strong close degree (closing the file
+// closes anything still open in it), and objects in the HDF5 1.8 format, whose metadata carry
+// checksums: with one to two random bytes flipped, h5py read a file of 6 groups of 25 attributes
+// with a silently different value in 8 of 250 trials and crashed in 5, against 37 and 22 in the
+// earliest format.
 hid_t H5Writer::openWorkingCopy(bool create) const {
   Hid fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
-  if (!fapl.ok() || H5Pset_fclose_degree(fapl, H5F_CLOSE_STRONG) < 0 ||
+  if (!fapl.ok() || H5Pset_fapl_core(fapl, kImageIncrement, false) < 0 ||
+      H5Pset_fclose_degree(fapl, H5F_CLOSE_STRONG) < 0 ||
       H5Pset_libver_bounds(fapl, H5F_LIBVER_V18, H5F_LIBVER_V18) < 0 ||
       (append_ && H5Pset_file_locking(fapl, false, true) < 0))
     fail("set up file access for", file_path_);
@@ -267,10 +327,50 @@ void H5Writer::copyFile(const std::string& from, const std::string& to) const {
   if (ec) throw std::runtime_error("cannot copy " + from + " to " + to + ": " + ec.message());
 }
 
-// Append mode: the working copy flushed, copied beside the file and moved over it.
+// The file's image written to `to`, replacing it, with the mode of the file at path() where
+// there is one. HDF5 writes only to memory (openWorkingCopy), so a full disk or a file-size limit
+// fails here, in this writer's own write, and the file stays open and whole in memory: HDF5
+// 1.10 half-destroys a file whose flush to disk fails, can neither close nor forget it, and
+// closes it again at exit, where it crashed (H5F__close_cb) in every process whose HDF5 was
+// started before minv's (Python with h5py imported first).
+void H5Writer::writeImage(const std::string& to) const {
+  if (H5Fflush(file_, H5F_SCOPE_GLOBAL) < 0) fail("flush", append_ ? path_ : file_path_);
+  const ssize_t size = H5Fget_file_image(file_, nullptr, 0);
+  if (size < 0) fail("take the image of", append_ ? path_ : file_path_);
+  const auto image =
+      std::make_unique_for_overwrite<unsigned char[]>(static_cast<std::size_t>(size));
+  if (H5Fget_file_image(file_, image.get(), static_cast<std::size_t>(size)) != size)
+    fail("take the image of", append_ ? path_ : file_path_);
+  resealSuperblock(image.get(), static_cast<std::size_t>(size));
+  struct stat existing {};
+  const mode_t mode = stat(path_.c_str(), &existing) == 0 ? existing.st_mode & 07777 : 0666;
+  const int fd = open(to.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, mode);
+  if (fd < 0) throw std::runtime_error("cannot create " + to + ": " + std::strerror(errno));
+  // every byte, then the close (which can report a deferred write error)
+  const unsigned char* at = image.get();
+  for (ssize_t left = size; left > 0;) {
+    const ssize_t wrote = write(fd, at, static_cast<std::size_t>(left));
+    if (wrote < 0 && errno == EINTR) continue;
+    if (wrote <= 0) {
+      const int err = wrote < 0 ? errno : EIO;
+      close(fd);
+      std::error_code ec;
+      std::filesystem::remove(to, ec);
+      throw std::runtime_error("cannot write '" + path_ + "' (" + to + "): " + std::strerror(err));
+    }
+    at += wrote, left -= wrote;
+  }
+  if (close(fd) != 0) {
+    const int err = errno;
+    std::error_code ec;
+    std::filesystem::remove(to, ec);
+    throw std::runtime_error("cannot write '" + path_ + "' (" + to + "): " + std::strerror(err));
+  }
+}
+
+// Append mode: the file's image written beside it and moved over it.
 void H5Writer::publish() {
-  if (H5Fflush(file_, H5F_SCOPE_GLOBAL) < 0) fail("flush", path_);
-  copyFile(file_path_, publish_path_);
+  writeImage(publish_path_);
   std::error_code ec;
   std::filesystem::rename(publish_path_, path_, ec);
   if (ec)
@@ -478,18 +578,27 @@ void H5Writer::remove(const std::string& object) {
 void H5Writer::flush() {
   requireOpen("flush");
   if (append_) return publish();
-  if (H5Fflush(file_, H5F_SCOPE_GLOBAL) < 0) fail("flush", file_path_);
+  writeImage(file_path_);
 }
 
-// Close (which writes everything), then move the tmp file into place; release the lock.
+// Create mode: the image written to the tmp file and moved into place. Append mode: published,
+// the working copy removed (while still locked). Then the file closed (in memory) and the lock
+// released. A failed write leaves the writer open, to be abandoned.
 void H5Writer::commit() {
   requireOpen("commit");
-  const herr_t closed = H5Fclose(std::exchange(file_, -1));
-  if (closed < 0) fail("close", append_ ? path_ : file_path_);
   std::error_code ec;
-  std::filesystem::rename(file_path_, path_, ec);
-  if (ec)
-    throw std::runtime_error("cannot rename " + file_path_ + " to " + path_ + ": " + ec.message());
+  if (append_) {
+    publish();
+  } else {
+    writeImage(file_path_);
+    std::filesystem::rename(file_path_, path_, ec);
+    if (ec)
+      throw std::runtime_error("cannot rename " + file_path_ + " to " + path_ + ": " +
+                               ec.message());
+  }
+  const herr_t closed = H5Fclose(std::exchange(file_, -1));
+  if (append_) std::filesystem::remove(file_path_, ec);
+  if (closed < 0) H5Eclear2(H5E_DEFAULT);
   committed_ = true;
   if (lock_fd_ >= 0) close(std::exchange(lock_fd_, -1));
   unregisterTmp(std::exchange(tmp_slot_, -1));

@@ -1,7 +1,12 @@
 // The one HDF5 result writer of the project (plain HDF5 C API), used by every experiment.
 //
 // Contract:
-//   * H5Writer(path) writes to `path + ".tmp"`; commit() closes it and renames it to `path`.
+//   * HDF5 builds the file in memory (its core driver, without a backing store) and the writer
+//     writes its image to disk itself: a full disk or a file-size limit is then one error of
+//     the writer's, where HDF5 1.10, whose own flush had failed, crashed at exit in a process
+//     that started HDF5 before minv (Python with h5py imported first). A file being written
+//     takes its size in memory.
+//   * H5Writer(path) writes to `path + ".tmp"`; commit() writes it and renames it to `path`.
 //     Destroying a writer that was not committed deletes the tmp file, so a failed run never
 //     leaves a (half-written) result file at `path`; nor does a run killed by SIGINT, SIGTERM
 //     or SIGHUP, or aborted (a peer library's failed assertion), where no destructor runs: the
@@ -14,17 +19,17 @@
 //     (an open-file-description lock) for its life: a second appending writer of the same file
 //     is refused ("another process is appending to …") and touches nothing; a create-mode
 //     writer of the same path writes its own `path + ".tmp"`. flush(), which endPoint() calls,
-//     publishes the copy: flushes it, copies it to `path + ".publish.tmp"` and renames that over
+//     publishes the file: writes its image to `path + ".publish.tmp"` and renames that over
 //     `path`. So `path` is always a whole file as the last publication left it: a kill, a full
 //     disk or a crash in the middle of a point loses that point only (written in place, a kill
 //     could leave an HDF5 file unreadable, every point in it lost), and the tmp files are
 //     removed as in create mode (a SIGKILLed writer's stale copy is replaced by the next).
-//     commit() closes the copy and renames it to `path`. A point's data go to a staging group
+//     commit() publishes the file and removes the copy. A point's data go to a staging group
 //     "<name>.partial", which endPoint() renames to <name>, so hasGroup(name) is true only for
 //     finished points; beginPoint() drops a staging group that an older, in-place run left
 //     behind. An existing `path` is first read whole, and the first writes tried on a copy, in
 //     a child process (isolate.hpp: requireUndamaged), so that a damaged file is an error, not
-//     a crash. A symbolic link `path` publishes to its target. Each point copies the file once
+//     a crash. A symbolic link `path` publishes to its target. Each point writes the file once
 //     (1270 points of the quick timing sweep, up to 7 MB: a few seconds in all), and power loss
 //     is not covered (no fsync).
 //   * Object paths are "/"-separated and relative to the root ("a/b" = "/a/b"); writing a
@@ -43,6 +48,7 @@
 
 #include <Eigen/Core>
 #include <concepts>
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -129,9 +135,10 @@ class H5Writer {
   // Delete a link (group or dataset); absent is fine.
   void remove(const std::string& object);
 
-  // Push everything written so far to disk; in append mode, publish it to path().
+  // Write everything so far to disk: to the tmp file, in append mode published to path().
   void flush();
-  // Close the file and rename the tmp file to path(). The writer is then spent.
+  // Write the file to path() (through the tmp file) and close it. The writer is then spent;
+  // where a write fails it throws, and the writer stays open to be abandoned.
   void commit();
 
  private:
@@ -140,6 +147,7 @@ class H5Writer {
   hid_t openWorkingCopy(bool create) const;
   void copyFile(const std::string& from, const std::string& to) const;
   void lockWorkingCopy();
+  void writeImage(const std::string& to) const;
   void publish();
   void abandon();
   void writeDataset(const std::string& dataset, hid_t file_type, hid_t mem_type,
@@ -148,6 +156,8 @@ class H5Writer {
                       hid_t mem_type, const void* data);
   [[noreturn]] void fail(const std::string& what, const std::string& object) const;
 
+  // The in-memory file grows by this many bytes at a time.
+  static constexpr std::size_t kImageIncrement = std::size_t(1) << 22;
   std::string path_, file_path_, publish_path_;
   bool append_ = false, committed_ = false;
   hid_t file_ = -1;

@@ -16,6 +16,7 @@
 #include <cstring>
 #include <filesystem>
 #include <stdexcept>
+#include <vector>
 
 #include "experiments/lib/h5writer.hpp"
 
@@ -162,10 +163,14 @@ void readWholeFile(const std::string& path) {
 }
 
 // The writes an append begins with, on a scratch copy (which the parent holds locked: HDF5's
-// own lock is off): a group with a string attribute at the root and in "points".
+// own lock is off) opened as the writer opens its working copy (in memory, HDF5 1.8 objects): a
+// group with a string attribute at the root and in "points", then the file's image taken.
 void trialWrite(const std::string& copy) {
   Hid fapl{H5Pcreate(H5P_FILE_ACCESS), H5Pclose};
-  if (fapl < 0 || H5Pset_file_locking(fapl, false, true) < 0) return;
+  if (fapl < 0 || H5Pset_file_locking(fapl, false, true) < 0 ||
+      H5Pset_fapl_core(fapl, std::size_t(1) << 22, false) < 0 ||
+      H5Pset_libver_bounds(fapl, H5F_LIBVER_V18, H5F_LIBVER_V18) < 0)
+    return;
   Hid file{H5Fopen(copy.c_str(), H5F_ACC_RDWR, fapl), H5Fclose};
   if (file < 0) return;
   for (const char* parent : {"/", "/points"}) {
@@ -179,6 +184,11 @@ void trialWrite(const std::string& copy) {
     Hid a{H5Acreate2(g, "trial", type, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose};
     const char* text = "trial";
     if (a >= 0) H5Awrite(a, type, &text);
+  }
+  const ssize_t size = H5Fget_file_image(file, nullptr, 0);
+  if (size > 0) {
+    std::vector<char> image(static_cast<std::size_t>(size));
+    H5Fget_file_image(file, image.data(), image.size());
   }
 }
 
