@@ -42,8 +42,8 @@ PYBIND11_MODULE(_minv, m) {
   // Exceptions: ModelError is a ValueError; a Python interrupt travels through C++ as itself.
   static py::exception<minv::ModelError> model_error(m, "ModelError", PyExc_ValueError);
   // HDF5's error printing off (experiments/lib/h5writer.cpp). Its close at exit, where a file
-  // whose flush had failed made it crash, is harmless now that the writer's files are built in
-  // memory and written by the writer (HDF5 no longer takes that order after h5py started it).
+  // whose flush had failed made it crash, is harmless now that the files Python writes (all in
+  // append mode) are built in memory and written by the writer itself.
   minv::silenceHdf5Errors();
   // This module's exceptions only (a local translator: another module's stay its own).
   py::register_local_exception_translator([](std::exception_ptr p) {

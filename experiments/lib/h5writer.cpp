@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <memory>
 #include <mutex>
 #include <stdexcept>
@@ -223,11 +224,6 @@ H5Writer::H5Writer(const std::string& path, bool append)
     // Create mode: the tmp file, known to the signal handler before it exists
     tmp_slot_ = registerTmp(std::filesystem::absolute(file_path_, ec).string());
     try {
-      // (the tmp file made empty now, so that a place that cannot be written fails here)
-      const int fd = open(file_path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
-      if (fd < 0)
-        throw std::runtime_error("cannot create " + file_path_ + ": " + std::strerror(errno));
-      close(fd);
       file_ = openWorkingCopy(true);
     } catch (...) {
       unregisterTmp(std::exchange(tmp_slot_, -1));
@@ -261,6 +257,15 @@ H5Writer::H5Writer(const std::string& path, bool append)
       copyFile(path_, file_path_);
     }
     file_ = openWorkingCopy(!existing);
+    // A user block (another tool's file) is not part of HDF5's image: kept to write before it
+    hsize_t userblock = 0;
+    Hid fcpl(H5Fget_create_plist(file_), H5Pclose);
+    if (existing && fcpl.ok() && H5Pget_userblock(fcpl, &userblock) >= 0 && userblock > 0) {
+      std::ifstream in(file_path_, std::ios::binary);
+      userblock_.resize(userblock);
+      if (!in.read(userblock_.data(), static_cast<std::streamsize>(userblock)))
+        fail("read the user block of", path_);
+    }
   } catch (...) {
     abandon();
     throw;
@@ -300,8 +305,8 @@ void H5Writer::lockWorkingCopy() {
   throw std::runtime_error("cannot lock " + file_path_ + ": it keeps being replaced");
 }
 
-// Create mode's file, or append mode's working copy, opened in memory: the core driver without
-// a backing store (the file's image goes to disk in writeImage, by this writer's own writes);
+// Create mode's file, which HDF5 writes, or append mode's working copy, which HDF5 reads into
+// memory and keeps there (the core driver without a backing store; publish() writes its image);
 // HDF5's own lock off there (the writer holds its own), strong close degree (closing the file
 // closes anything still open in it), and objects in the HDF5 1.8 format, whose metadata carry
 // checksums: with one to two random bytes flipped, h5py read a file of 6 groups of 25 attributes
@@ -309,7 +314,7 @@ void H5Writer::lockWorkingCopy() {
 // earliest format.
 hid_t H5Writer::openWorkingCopy(bool create) const {
   Hid fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
-  if (!fapl.ok() || H5Pset_fapl_core(fapl, kImageIncrement, false) < 0 ||
+  if (!fapl.ok() || (append_ && H5Pset_fapl_core(fapl, kImageIncrement, false) < 0) ||
       H5Pset_fclose_degree(fapl, H5F_CLOSE_STRONG) < 0 ||
       H5Pset_libver_bounds(fapl, H5F_LIBVER_V18, H5F_LIBVER_V18) < 0 ||
       (append_ && H5Pset_file_locking(fapl, false, true) < 0))
@@ -327,39 +332,45 @@ void H5Writer::copyFile(const std::string& from, const std::string& to) const {
   if (ec) throw std::runtime_error("cannot copy " + from + " to " + to + ": " + ec.message());
 }
 
-// The file's image written to `to`, replacing it, with the mode of the file at path() where
-// there is one. HDF5 writes only to memory (openWorkingCopy), so a full disk or a file-size limit
-// fails here, in this writer's own write, and the file stays open and whole in memory: HDF5
-// 1.10 half-destroys a file whose flush to disk fails, can neither close nor forget it, and
-// closes it again at exit, where it crashed (H5F__close_cb) in every process whose HDF5 was
-// started before minv's (Python with h5py imported first).
+// Append mode: the file's image (after the user block, if the file has one) written to `to`,
+// replacing it, with the permissions of the file at path() where there is one. HDF5 writes only
+// to memory (openWorkingCopy), so a full disk or a file-size limit fails here, in the writer's
+// own write, and the file stays whole in memory: HDF5 1.10 half-destroys a file whose flush to
+// disk fails, can neither close nor forget it, and closes it again at exit, where it crashed
+// (H5F__close_cb) in a process whose HDF5 was started before minv's, where H5dont_atexit comes
+// too late (Python with h5py imported first). The image is taken whole: the file and one copy
+// in memory while it is written.
 void H5Writer::writeImage(const std::string& to) const {
-  if (H5Fflush(file_, H5F_SCOPE_GLOBAL) < 0) fail("flush", append_ ? path_ : file_path_);
+  if (H5Fflush(file_, H5F_SCOPE_GLOBAL) < 0) fail("flush", path_);
   const ssize_t size = H5Fget_file_image(file_, nullptr, 0);
-  if (size < 0) fail("take the image of", append_ ? path_ : file_path_);
+  if (size < 0) fail("take the image of", path_);
   const auto image =
       std::make_unique_for_overwrite<unsigned char[]>(static_cast<std::size_t>(size));
   if (H5Fget_file_image(file_, image.get(), static_cast<std::size_t>(size)) != size)
-    fail("take the image of", append_ ? path_ : file_path_);
+    fail("take the image of", path_);
   resealSuperblock(image.get(), static_cast<std::size_t>(size));
   struct stat existing {};
-  const mode_t mode = stat(path_.c_str(), &existing) == 0 ? existing.st_mode & 07777 : 0666;
-  const int fd = open(to.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, mode);
+  const bool exists = stat(path_.c_str(), &existing) == 0;
+  const int fd = open(to.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
   if (fd < 0) throw std::runtime_error("cannot create " + to + ": " + std::strerror(errno));
+  auto failed = [&](int err) {
+    close(fd);
+    std::error_code ec;
+    std::filesystem::remove(to, ec);
+    throw std::runtime_error("cannot write '" + path_ + "' (" + to + "): " + std::strerror(err));
+  };
+  if (exists && fchmod(fd, existing.st_mode & 07777) != 0) failed(errno);
   // every byte, then the close (which can report a deferred write error)
-  const unsigned char* at = image.get();
-  for (ssize_t left = size; left > 0;) {
-    const ssize_t wrote = write(fd, at, static_cast<std::size_t>(left));
-    if (wrote < 0 && errno == EINTR) continue;
-    if (wrote <= 0) {
-      const int err = wrote < 0 ? errno : EIO;
-      close(fd);
-      std::error_code ec;
-      std::filesystem::remove(to, ec);
-      throw std::runtime_error("cannot write '" + path_ + "' (" + to + "): " + std::strerror(err));
+  auto writeAll = [&](const unsigned char* at, std::size_t left) {
+    while (left > 0) {
+      const ssize_t wrote = write(fd, at, left);
+      if (wrote < 0 && errno == EINTR) continue;
+      if (wrote <= 0) failed(wrote < 0 ? errno : EIO);
+      at += wrote, left -= static_cast<std::size_t>(wrote);
     }
-    at += wrote, left -= wrote;
-  }
+  };
+  writeAll(reinterpret_cast<const unsigned char*>(userblock_.data()), userblock_.size());
+  writeAll(image.get(), static_cast<std::size_t>(size));
   if (close(fd) != 0) {
     const int err = errno;
     std::error_code ec;
@@ -578,27 +589,27 @@ void H5Writer::remove(const std::string& object) {
 void H5Writer::flush() {
   requireOpen("flush");
   if (append_) return publish();
-  writeImage(file_path_);
+  if (H5Fflush(file_, H5F_SCOPE_GLOBAL) < 0) fail("flush", file_path_);
 }
 
-// Create mode: the image written to the tmp file and moved into place. Append mode: published,
-// the working copy removed (while still locked). Then the file closed (in memory) and the lock
-// released. A failed write leaves the writer open, to be abandoned.
+// Create mode: the file closed (which writes everything) and moved into place. Append mode:
+// published, closed (in memory) and the working copy removed while still locked. Then the lock
+// released. A failed publication leaves the writer open, to be abandoned.
 void H5Writer::commit() {
   requireOpen("commit");
   std::error_code ec;
   if (append_) {
     publish();
+    if (H5Fclose(std::exchange(file_, -1)) < 0) H5Eclear2(H5E_DEFAULT);
+    std::filesystem::remove(file_path_, ec);
   } else {
-    writeImage(file_path_);
+    const herr_t closed = H5Fclose(std::exchange(file_, -1));
+    if (closed < 0) fail("close", file_path_);
     std::filesystem::rename(file_path_, path_, ec);
     if (ec)
       throw std::runtime_error("cannot rename " + file_path_ + " to " + path_ + ": " +
                                ec.message());
   }
-  const herr_t closed = H5Fclose(std::exchange(file_, -1));
-  if (append_) std::filesystem::remove(file_path_, ec);
-  if (closed < 0) H5Eclear2(H5E_DEFAULT);
   committed_ = true;
   if (lock_fd_ >= 0) close(std::exchange(lock_fd_, -1));
   unregisterTmp(std::exchange(tmp_slot_, -1));

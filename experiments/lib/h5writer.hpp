@@ -1,12 +1,7 @@
 // The one HDF5 result writer of the project (plain HDF5 C API), used by every experiment.
 //
 // Contract:
-//   * HDF5 builds the file in memory (its core driver, without a backing store) and the writer
-//     writes its image to disk itself: a full disk or a file-size limit is then one error of
-//     the writer's, where HDF5 1.10, whose own flush had failed, crashed at exit in a process
-//     that started HDF5 before minv (Python with h5py imported first). A file being written
-//     takes its size in memory.
-//   * H5Writer(path) writes to `path + ".tmp"`; commit() writes it and renames it to `path`.
+//   * H5Writer(path) writes to `path + ".tmp"`; commit() closes it and renames it to `path`.
 //     Destroying a writer that was not committed deletes the tmp file, so a failed run never
 //     leaves a (half-written) result file at `path`; nor does a run killed by SIGINT, SIGTERM
 //     or SIGHUP, or aborted (a peer library's failed assertion), where no destructor runs: the
@@ -15,15 +10,21 @@
 //     before (Python keeps its own SIGINT).
 //   * H5Writer::append(path) adds to `path` (or creates it), for sweeps that write each point
 //     when it finishes and resume after a kill: write a point between beginPoint(name) and
-//     endPoint(name). The writer works on a copy, `path + ".append.tmp"`, which it holds locked
-//     (an open-file-description lock) for its life: a second appending writer of the same file
+//     endPoint(name). HDF5 reads a copy, `path + ".append.tmp"`, into memory and keeps the file
+//     there (its core driver, without a backing store); the writer holds that copy locked (an
+//     open-file-description lock) for its life: a second appending writer of the same file
 //     is refused ("another process is appending to …") and touches nothing; a create-mode
 //     writer of the same path writes its own `path + ".tmp"`. flush(), which endPoint() calls,
-//     publishes the file: writes its image to `path + ".publish.tmp"` and renames that over
-//     `path`. So `path` is always a whole file as the last publication left it: a kill, a full
-//     disk or a crash in the middle of a point loses that point only (written in place, a kill
-//     could leave an HDF5 file unreadable, every point in it lost), and the tmp files are
-//     removed as in create mode (a SIGKILLed writer's stale copy is replaced by the next).
+//     publishes the file: writes its image (HDF5's H5Fget_file_image; the writer's own writes) to
+//     `path + ".publish.tmp"` and renames that over `path`. So `path` is always a whole file as the
+//     last publication left it: a kill, a full disk or a crash in the middle of a point loses that
+//     point only (written in place, a kill could leave an HDF5 file unreadable, every point in it
+//     lost), and the tmp files are removed as in create mode (a SIGKILLed writer's stale copy is
+//     replaced by the next). Since HDF5 writes only to memory, a full disk or a file-size limit is
+//     one error of the writer's, where HDF5 1.10, after a flush of its own had failed, crashed at
+//     exit in a process that had started HDF5 before minv (Python with h5py imported first; what
+//     Python writes through minv is all in append mode). The file takes its size in memory, twice
+//     while it is published.
 //     commit() publishes the file and removes the copy. A point's data go to a staging group
 //     "<name>.partial", which endPoint() renames to <name>, so hasGroup(name) is true only for
 //     finished points; beginPoint() drops a staging group that an older, in-place run left
@@ -35,7 +36,8 @@
 //   * Object paths are "/"-separated and relative to the root ("a/b" = "/a/b"); writing a
 //     dataset creates the missing groups on its path.
 //   * Format: HDF5 1.8 objects (superblock 2), whose metadata carry checksums (HDF5 and h5py
-//     1.8 on read them); an earlier file appended to keeps its old objects.
+//     1.8 on read them); an earlier file appended to keeps its old objects, its superblock and
+//     its user block.
 //   * Layout: a matrix is stored row-major as [rows, cols], so h5py reads M[i, j] = M(i, j);
 //     doubles as IEEE float64, integers as int64 (a uint64 attribute as uint64), strings as
 //     variable-length UTF-8 (datasets and attributes). A dataset is written once (writing it
@@ -159,6 +161,7 @@ class H5Writer {
   // The in-memory file grows by this many bytes at a time.
   static constexpr std::size_t kImageIncrement = std::size_t(1) << 22;
   std::string path_, file_path_, publish_path_;
+  std::string userblock_;  // append mode: the file's user block, if it has one
   bool append_ = false, committed_ = false;
   hid_t file_ = -1;
   int lock_fd_ = -1;       // append mode: the working copy, locked
