@@ -9,6 +9,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cerrno>
 #include <chrono>
 #include <cstdint>
@@ -222,6 +223,49 @@ Limits limitsFor(const std::vector<std::string>& files) {
           residentBytes(getpid()) + (std::uint64_t(1) << 30) + 16 * std::uint64_t(size)};
 }
 
+// fork() while this thread holds HDF5's API lock: in the callback of an iteration over the
+// attributes of a file in memory (a thread-safe HDF5 holds its recursive lock while it calls
+// back). No other thread of the process is then inside HDF5 (a Python thread in h5py, say):
+// the child, this thread alone, would have waited for that thread's lock until its time ran out,
+// and every file was then reported damaged. The child runs `child` inside the callback and never
+// returns there (leaving HDF5 would release the lock and wake waiters the child does not have).
+// Where HDF5 cannot make the file, a plain fork.
+pid_t forkOutsideOtherHdf5Calls(const std::function<void()>& child) {
+  struct Call {
+    const std::function<void()>* child;
+    bool forked = false;
+    pid_t pid = -1;
+    int err = 0;
+  } call{&child};
+  auto forkHere = [](hid_t, const char*, const H5A_info_t*, void* data) -> herr_t {
+    Call& c = *static_cast<Call*>(data);
+    c.forked = true;
+    c.pid = fork();
+    c.err = errno;
+    if (c.pid == 0) {
+      (*c.child)();
+      _exit(1);
+    }
+    return 1;  // one call is enough
+  };
+  static std::atomic<unsigned> made{0};
+  const std::string name = "minv-fork-" + std::to_string(getpid()) + "-" + std::to_string(made++);
+  Hid fapl{H5Pcreate(H5P_FILE_ACCESS), H5Pclose};
+  if (fapl >= 0 && H5Pset_fapl_core(fapl, 4096, false) >= 0) {
+    Hid file{H5Fcreate(name.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl), H5Fclose};
+    Hid space{H5Screate(H5S_SCALAR), H5Sclose};
+    Hid a{file >= 0 && space >= 0
+              ? H5Acreate2(file, "a", H5T_NATIVE_INT, space, H5P_DEFAULT, H5P_DEFAULT)
+              : -1,
+          H5Aclose};
+    if (a >= 0) H5Aiterate2(file, H5_INDEX_NAME, H5_ITER_NATIVE, nullptr, forkHere, &call);
+  }
+  H5Eclear2(H5E_DEFAULT);
+  if (!call.forked) forkHere(-1, nullptr, nullptr, &call);
+  errno = call.err;
+  return call.pid;
+}
+
 // `work` in a fork of this process, watched: killed past its time or its memory.
 Outcome runForked(const std::function<std::string()>& work, const Limits& limits) {
   int fds[2];
@@ -236,14 +280,13 @@ Outcome runForked(const std::function<std::string()>& work, const Limits& limits
     }
   if (fds[0] < 0 || fds[1] < 0)
     throw std::runtime_error(std::string("cannot make a pipe: ") + std::strerror(errno));
-  const pid_t self = getpid(), pid = fork();
+  const pid_t self = getpid(), pid = forkOutsideOtherHdf5Calls([&] {
+                                 close(fds[0]);
+                                 runChild(fds[1], self, work);
+                               });
   if (pid < 0) {
     close(fds[0]), close(fds[1]);
     throw std::runtime_error(std::string("cannot fork: ") + std::strerror(errno));
-  }
-  if (pid == 0) {
-    close(fds[0]);
-    runChild(fds[1], self, work);
   }
   close(fds[1]);
   // Its records until it closes the pipe; every 50 ms its time and memory checked

@@ -36,9 +36,12 @@
 //     crashes, hangs or runs away with memory. An HDF5 error there is not damage and passes
 //     (the caller's own read reports it).
 //   * After fork in a process with other threads, the child can only use what no other thread
-//     held at that moment: a host process (Python) whose other thread was inside HDF5 (built
-//     thread-safe on Debian, with one lock) leaves the child waiting until its time ends, and
-//     the file is then reported damaged. (Python's read_points keeps the GIL for that reason.)
+//     held at that moment. So the fork is made while this thread holds HDF5's lock (HDF5 is
+//     built thread-safe on Debian, with one recursive lock), inside an HDF5 callback that the
+//     child never returns from: another thread inside HDF5 (h5py in Python) is waited for, not
+//     inherited mid-call (the child then waited for its lock until its time ended, and the file
+//     was reported damaged). Locks of other libraries are not covered; Python's read_points
+//     keeps the GIL while it forks.
 #pragma once
 
 #include <functional>

@@ -4,6 +4,7 @@ import threading
 import time
 
 import numpy as np
+import pytest
 
 import minv
 from conftest import ScipyCholesky
@@ -129,3 +130,33 @@ def test_check_runs_beside_other_threads():
         done.set()
         t.join()
     assert len(ticks) > 10
+
+
+def test_resumed_compare_beside_a_thread_inside_hdf5(tmp_path):
+    """A resumed compare (the GIL released) reads its file in a forked child first, while
+    another thread reads result files with h5py: the fork waits for HDF5's lock, so the child
+    does not inherit it held by a thread it does not have (it waited 10 s, and the file was
+    reported damaged, in nearly every such run)."""
+    h5py = pytest.importorskip("h5py")
+    out = tmp_path / "c.h5"
+    args = dict(sizes=(4,), topologies=("serial",), against=("abi",), out=out, repetitions=1,
+                min_time=0.001)
+    minv.compare(ScipyCholesky, **args)
+    stop = threading.Event()
+    reads = []
+
+    def hammer():
+        while not stop.is_set():
+            with h5py.File(out, "r") as f:
+                f.visit(lambda name: None)
+            reads.append(1)
+
+    thread = threading.Thread(target=hammer)
+    thread.start()
+    try:
+        for _ in range(4):
+            minv.compare(ScipyCholesky, resume=True, **args)
+    finally:
+        stop.set()
+        thread.join()
+    assert reads
