@@ -208,16 +208,24 @@ py::dict compare(const std::string& name, const std::string& label, const std::s
 }
 
 // Adds root attributes (strings) to a finished result file.
+// Without the GIL, as every call here that enters HDF5: a thread inside HDF5 (h5py) may hold
+// HDF5's lock while it waits for the GIL (a visititems callback), and waiting for that lock
+// with the GIL held deadlocked.
 void annotate(const std::string& path, const std::map<std::string, std::string>& attributes) {
+  py::gil_scoped_release release;
   H5Writer h5 = H5Writer::append(path);
   for (const auto& [key, value] : attributes) h5.setAttribute("/", key, value);
   h5.commit();
 }
 
 py::dict readPointsPy(const std::string& path) {
-  // With the GIL held: the file is read in a child process first (isolate.hpp), which must not
-  // be forked while another thread of ours is inside HDF5
-  const std::map<std::string, PointRecord> points = readPoints(path);
+  // Without the GIL (as annotate); the child that reads the file first is forked while this
+  // thread holds HDF5's lock (isolate.hpp)
+  std::map<std::string, PointRecord> points;
+  {
+    py::gil_scoped_release release;
+    points = readPoints(path);
+  }
   py::dict out;
   for (const auto& [name, record] : points) {
     py::dict d;

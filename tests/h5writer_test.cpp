@@ -9,6 +9,8 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <atomic>
+#include <chrono>
 #include <csignal>
 #include <cstdlib>
 #include <filesystem>
@@ -16,6 +18,7 @@
 #include <random>
 #include <regex>
 
+#include "experiments/lib/isolate.hpp"
 #include "experiments/lib/provenance.hpp"
 
 namespace minv {
@@ -438,6 +441,30 @@ TEST(H5Writer, AppendModeSurvivesKillsAtAnyMoment) {
           << name;
   }
   EXPECT_GT(last, 12);
+}
+
+// The child that reads a file first (isolate.hpp) is done when it ends, also where another
+// process holds the write end of its pipe: the parent waited for that process and, past 10 s,
+// reported the file damaged. Here the child's own child holds it; in Python, a process that
+// another thread forked while the pipe was open (a multiprocessing worker during a resumed
+// sweep).
+TEST(H5Writer, ReadingChildIsDoneWhenItEndsWhateverHoldsItsPipe) {
+  const auto start = std::chrono::steady_clock::now();
+  std::string holder;
+  EXPECT_NO_THROW(holder = inChildProcess(
+                      [] {
+                        const pid_t pid = fork();
+                        if (pid == 0) {
+                          sleep(11);
+                          _exit(0);
+                        }
+                        return std::to_string(pid);
+                      },
+                      {}));
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (!holder.empty() && std::stoi(holder) > 0) kill(std::stoi(holder), SIGKILL);
+  EXPECT_LT(seconds, 5.0);
 }
 
 // One writer per file: a second append writer is refused and touches nothing, the first goes on;

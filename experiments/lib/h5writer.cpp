@@ -29,16 +29,20 @@ namespace {
 constexpr int kTmpSlots = 32;
 struct TmpSlot {
   std::atomic<bool> used{false};
+  pid_t owner = 0;  // the process whose writer registered it
   char path[4096];
 };
 TmpSlot tmpSlots[kTmpSlots];
 std::mutex tmpMutex;
 
 // SIGINT, SIGTERM, SIGHUP, SIGABRT, SIGPIPE (a closed pipe on stdout), SIGXFSZ (a file-size
-// limit): remove the live tmp files, then die of the signal as before.
+// limit): remove this process's live tmp files, then die of the signal as before. A process
+// forked from a writer's (a Python multiprocessing worker) removes none: one that got SIGTERM
+// removed the working copy of the sweep still running in its parent.
 extern "C" void removeTmpFilesAndDie(int sig) {
+  const pid_t self = getpid();
   for (TmpSlot& slot : tmpSlots)
-    if (slot.used.load(std::memory_order_acquire)) unlink(slot.path);
+    if (slot.used.load(std::memory_order_acquire) && slot.owner == self) unlink(slot.path);
   std::signal(sig, SIG_DFL);
   std::raise(sig);
 }
@@ -70,6 +74,7 @@ int registerTmp(const std::string& path) {
   for (int i = 0; i < kTmpSlots; ++i) {
     if (tmpSlots[i].used.load(std::memory_order_relaxed)) continue;
     std::memcpy(tmpSlots[i].path, path.c_str(), path.size() + 1);
+    tmpSlots[i].owner = getpid();
     tmpSlots[i].used.store(true, std::memory_order_release);
     return i;
   }
@@ -390,8 +395,13 @@ void H5Writer::publish() {
 }
 
 // Close the file and remove the tmp files (in append mode only while holding the lock: a
-// refused writer touches nothing); release the lock and the signal handler's slots.
+// refused writer touches nothing); release the lock and the signal handler's slots. A writer
+// that a forked process inherited touches nothing there: the files are its parent's.
 void H5Writer::abandon() {
+  if (owner_ != getpid()) {
+    file_ = lock_fd_ = tmp_slot_ = publish_slot_ = -1;
+    return;
+  }
   if (file_ >= 0) H5Fclose(std::exchange(file_, -1));
   std::error_code ec;
   if (!append_ || lock_fd_ >= 0) std::filesystem::remove(file_path_, ec);
@@ -409,6 +419,7 @@ H5Writer::H5Writer(H5Writer&& other) noexcept
       committed_(other.committed_),
       file_(std::exchange(other.file_, -1)),
       lock_fd_(std::exchange(other.lock_fd_, -1)),
+      owner_(other.owner_),
       tmp_slot_(std::exchange(other.tmp_slot_, -1)),
       publish_slot_(std::exchange(other.publish_slot_, -1)) {
   other.committed_ = true;  // the moved-from writer owns no file and must not remove one

@@ -47,6 +47,8 @@
 #pragma once
 
 #include <hdf5.h>
+#include <sys/types.h>
+#include <unistd.h>
 
 #include <Eigen/Core>
 #include <concepts>
@@ -164,9 +166,10 @@ class H5Writer {
   std::string userblock_;  // append mode: the file's user block, if it has one
   bool append_ = false, committed_ = false;
   hid_t file_ = -1;
-  int lock_fd_ = -1;       // append mode: the working copy, locked
-  int tmp_slot_ = -1;      // the tmp file's slot in the signal handler's table
-  int publish_slot_ = -1;  // append mode: the publication copy's slot
+  int lock_fd_ = -1;        // append mode: the working copy, locked
+  pid_t owner_ = getpid();  // the process that made the writer
+  int tmp_slot_ = -1;       // the tmp file's slot in the signal handler's table
+  int publish_slot_ = -1;   // append mode: the publication copy's slot
 };
 
 }  // namespace minv

@@ -9,7 +9,6 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include <atomic>
 #include <cerrno>
 #include <chrono>
 #include <cstdint>
@@ -223,13 +222,13 @@ Limits limitsFor(const std::vector<std::string>& files) {
           residentBytes(getpid()) + (std::uint64_t(1) << 30) + 16 * std::uint64_t(size)};
 }
 
-// fork() while this thread holds HDF5's API lock: in the callback of an iteration over the
-// attributes of a file in memory (a thread-safe HDF5 holds its recursive lock while it calls
-// back). No other thread of the process is then inside HDF5 (a Python thread in h5py, say):
-// the child, this thread alone, would have waited for that thread's lock until its time ran out,
-// and every file was then reported damaged. The child runs `child` inside the callback and never
-// returns there (leaving HDF5 would release the lock and wake waiters the child does not have).
-// Where HDF5 cannot make the file, a plain fork.
+// fork() while this thread holds HDF5's API lock: in the callback of an iteration over a
+// property list's properties (a thread-safe HDF5 holds its recursive lock while it calls back).
+// No other thread of the process is then inside HDF5 (a Python thread in h5py, say): the child,
+// this thread alone, would have waited for that thread's lock until its time ran out, and every
+// file was then reported damaged. The child runs `child` inside the callback and never returns
+// there (leaving HDF5 would release the lock and wake waiters the child does not have). Where
+// HDF5 cannot iterate, a plain fork.
 pid_t forkOutsideOtherHdf5Calls(const std::function<void()>& child) {
   struct Call {
     const std::function<void()>* child;
@@ -237,7 +236,7 @@ pid_t forkOutsideOtherHdf5Calls(const std::function<void()>& child) {
     pid_t pid = -1;
     int err = 0;
   } call{&child};
-  auto forkHere = [](hid_t, const char*, const H5A_info_t*, void* data) -> herr_t {
+  auto forkHere = [](hid_t, const char*, void* data) -> herr_t {
     Call& c = *static_cast<Call*>(data);
     c.forked = true;
     c.pid = fork();
@@ -248,20 +247,11 @@ pid_t forkOutsideOtherHdf5Calls(const std::function<void()>& child) {
     }
     return 1;  // one call is enough
   };
-  static std::atomic<unsigned> made{0};
-  const std::string name = "minv-fork-" + std::to_string(getpid()) + "-" + std::to_string(made++);
-  Hid fapl{H5Pcreate(H5P_FILE_ACCESS), H5Pclose};
-  if (fapl >= 0 && H5Pset_fapl_core(fapl, 4096, false) >= 0) {
-    Hid file{H5Fcreate(name.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl), H5Fclose};
-    Hid space{H5Screate(H5S_SCALAR), H5Sclose};
-    Hid a{file >= 0 && space >= 0
-              ? H5Acreate2(file, "a", H5T_NATIVE_INT, space, H5P_DEFAULT, H5P_DEFAULT)
-              : -1,
-          H5Aclose};
-    if (a >= 0) H5Aiterate2(file, H5_INDEX_NAME, H5_ITER_NATIVE, nullptr, forkHere, &call);
+  {
+    Hid list{H5Pcreate(H5P_FILE_ACCESS), H5Pclose};
+    if (list >= 0) H5Piterate(list, nullptr, forkHere, &call);
   }
-  H5Eclear2(H5E_DEFAULT);
-  if (!call.forked) forkHere(-1, nullptr, nullptr, &call);
+  if (!call.forked) forkHere(-1, nullptr, &call);
   errno = call.err;
   return call.pid;
 }
@@ -289,22 +279,39 @@ Outcome runForked(const std::function<std::string()>& work, const Limits& limits
     throw std::runtime_error(std::string("cannot fork: ") + std::strerror(errno));
   }
   close(fds[1]);
-  // Its records until it closes the pipe; every 50 ms its time and memory checked
+  // Its records until it closes the pipe or ends; every 50 ms its time and memory checked
   Outcome o;
   std::string bytes;
+  bool ended = false;
+  auto readSome = [&] {
+    char buf[4096];
+    const ssize_t r = read(fds[0], buf, sizeof buf);
+    if (r > 0) bytes.append(buf, static_cast<std::size_t>(r));
+    return r;
+  };
   const auto start = std::chrono::steady_clock::now();
   for (;;) {
     pollfd p{fds[0], POLLIN, 0};
     const int ready = poll(&p, 1, 50);
     if (ready > 0) {
-      char buf[4096];
-      const ssize_t r = read(fds[0], buf, sizeof buf);
+      const ssize_t r = readSome();
       if (r < 0 && errno == EINTR) continue;
       if (r <= 0) break;
-      bytes.append(buf, static_cast<std::size_t>(r));
       continue;
     }
     if (ready < 0 && errno != EINTR) break;
+    // Ended, but the pipe still open: a process that another thread forked meanwhile holds its
+    // write end (it waited for that process, 20 s, and reported the file damaged); what the
+    // child sent is in the pipe
+    const pid_t w = waitpid(pid, &o.status, WNOHANG);
+    if (w == pid || (w < 0 && errno == ECHILD)) {
+      if (w != pid) o.status = 0;
+      ended = true;
+      fcntl(fds[0], F_SETFL, O_NONBLOCK);
+      while (readSome() > 0) {
+      }
+      break;
+    }
     const double elapsed =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (elapsed > limits.seconds)
@@ -319,6 +326,7 @@ Outcome runForked(const std::function<std::string()>& work, const Limits& limits
   }
   close(fds[0]);
   o.records = parseRecords(bytes);
+  if (ended) return o;
   pid_t waited;
   while ((waited = waitpid(pid, &o.status, 0)) < 0 && errno == EINTR) {
   }

@@ -40,8 +40,10 @@
 //     built thread-safe on Debian, with one recursive lock), inside an HDF5 callback that the
 //     child never returns from: another thread inside HDF5 (h5py in Python) is waited for, not
 //     inherited mid-call (the child then waited for its lock until its time ended, and the file
-//     was reported damaged). Locks of other libraries are not covered; Python's read_points
-//     keeps the GIL while it forks.
+//     was reported damaged). So a caller must not hold what such a thread may wait for inside
+//     HDF5: the Python module calls in without the GIL (an h5py callback takes it). Locks of
+//     other libraries are not covered. The child is done when it ends, also where another
+//     process (forked meanwhile by another thread) still holds its pipe open.
 #pragma once
 
 #include <functional>

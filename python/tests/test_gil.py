@@ -1,5 +1,8 @@
 """The GIL is released while a C++ solver works, and Python solvers called from C++ threads
 re-acquire it without deadlocking."""
+import subprocess
+import sys
+import textwrap
 import threading
 import time
 
@@ -132,31 +135,103 @@ def test_check_runs_beside_other_threads():
     assert len(ticks) > 10
 
 
-def test_resumed_compare_beside_a_thread_inside_hdf5(tmp_path):
-    """A resumed compare (the GIL released) reads its file in a forked child first, while
-    another thread reads result files with h5py: the fork waits for HDF5's lock, so the child
-    does not inherit it held by a thread it does not have (it waited 10 s, and the file was
-    reported damaged, in nearly every such run)."""
-    h5py = pytest.importorskip("h5py")
+def test_result_files_read_and_written_beside_h5py_threads(tmp_path):
+    """read_points and a resumed compare (each reads its file in a forked child first) beside
+    threads that walk the same file with h5py, whose visititems callback takes the GIL back
+    inside HDF5. The fork waits for HDF5's lock, so the child does not inherit it held by a
+    thread it does not have (it waited 10 s, and the file was reported damaged, in nearly every
+    resumed compare); and minv waits for that lock without the GIL (read_points and compare's
+    annotation held it, and deadlocked). Run in a subprocess with a time limit."""
+    pytest.importorskip("h5py")
+    script = textwrap.dedent(f"""
+        import threading, time
+        import h5py
+        import minv
+        from minv.reference import ScipyCholesky
+
+        out = {str(tmp_path / "c.h5")!r}
+        args = dict(sizes=(4,), topologies=("serial",), against=("abi",), out=out,
+                    repetitions=1, min_time=0.001)
+        minv.compare(ScipyCholesky, **args)
+        stop = threading.Event()
+
+        def walk():
+            while not stop.is_set():
+                try:
+                    with h5py.File(out, "r") as f:
+                        f.visititems(lambda name, obj: time.sleep(0.0005))
+                except OSError:
+                    pass  # (the file is being replaced)
+
+        threads = [threading.Thread(target=walk) for _ in range(2)]
+        for t in threads:
+            t.start()
+        try:
+            for _ in range(4):
+                minv.compare(ScipyCholesky, resume=True, **args)
+                minv.read_points(out)
+        finally:
+            stop.set()
+            for t in threads:
+                t.join()
+        print("done")
+    """)
+    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                         timeout=120)
+    assert run.returncode == 0 and "done" in run.stdout, run.stderr[-3000:]
+
+
+def test_children_forked_during_a_compare_keep_neither_its_lock_nor_its_tmp_files(tmp_path):
+    """Processes forked while a compare writes (multiprocessing's fork, say) detach from its
+    writer: one that gets SIGTERM does not remove the writer's working copy (the signal handler
+    did), and one that outlives the compare does not keep its lock (the next compare of that
+    file was refused: "another process is appending")."""
+    import os
+    import signal
+
+    class SlowPrepare(ScipyCholesky):
+        def prepare(self, model):
+            time.sleep(0.5)
+            super().prepare(model)
+
     out = tmp_path / "c.h5"
-    args = dict(sizes=(4,), topologies=("serial",), against=("abi",), out=out, repetitions=1,
+    working = str(out) + ".append.tmp"
+    args = dict(topologies=("serial",), against=("abi",), out=out, repetitions=1,
                 min_time=0.001)
-    minv.compare(ScipyCholesky, **args)
-    stop = threading.Event()
-    reads = []
+    minv.compare(ScipyCholesky, sizes=(4,), **args)
+    failures = []
 
-    def hammer():
-        while not stop.is_set():
-            with h5py.File(out, "r") as f:
-                f.visit(lambda name: None)
-            reads.append(1)
+    def slow_compare():
+        try:
+            minv.compare(SlowPrepare, sizes=(4, 8, 16), resume=True, **args)
+        except Exception as e:  # (reported by the assertion below)
+            failures.append(e)
 
-    thread = threading.Thread(target=hammer)
+    thread = threading.Thread(target=slow_compare)
     thread.start()
+    children = []
     try:
-        for _ in range(4):
-            minv.compare(ScipyCholesky, resume=True, **args)
-    finally:
-        stop.set()
+        deadline = time.time() + 30
+        while not os.path.exists(working) and time.time() < deadline:
+            time.sleep(0.01)
+        assert os.path.exists(working)
+        for _ in range(2):
+            pid = os.fork()
+            if pid == 0:
+                time.sleep(20)
+                os._exit(0)
+            children.append(pid)
+        os.kill(children[0], signal.SIGTERM)
+        os.waitpid(children[0], 0)
+        assert thread.is_alive() and os.path.exists(working), os.listdir(tmp_path)
         thread.join()
-    assert reads
+        assert not failures, failures
+        minv.compare(ScipyCholesky, sizes=(32,), resume=True, **args)
+        assert set(minv.read_points(out)) >= {
+            f"pipeline.{s}.serial.fixed.n{n:05d}.m0.t1" for s in ("abi", "scipycholesky")
+            for n in (4, 32)}
+    finally:
+        for pid in children[1:]:
+            os.kill(pid, signal.SIGKILL)
+            os.waitpid(pid, 0)
+        thread.join()
