@@ -41,9 +41,11 @@
 //     child never returns from: another thread inside HDF5 (h5py in Python) is waited for, not
 //     inherited mid-call (the child then waited for its lock until its time ended, and the file
 //     was reported damaged). So a caller must not hold what such a thread may wait for inside
-//     HDF5: the Python module calls in without the GIL (an h5py callback takes it). Locks of
-//     other libraries are not covered. The child is done when it ends, also where another
-//     process (forked meanwhile by another thread) still holds its pipe open.
+//     HDF5: the Python module calls in without the GIL (an h5py callback takes it). So another
+//     thread's fork can land while this thread is inside HDF5, and that process hangs at its
+//     first HDF5 call (the README says so). Locks of other libraries are not covered. The child is
+//     done when it ends, also where another process (forked meanwhile by another thread) still
+//     holds its pipe open.
 #pragma once
 
 #include <functional>
