@@ -28,6 +28,7 @@
 #include "experiments/lib/gbench.hpp"
 #include "experiments/lib/h5reader.hpp"
 #include "experiments/lib/h5writer.hpp"
+#include "experiments/lib/isolate.hpp"
 #include "experiments/lib/timing.hpp"
 #include "generators/random_tree.hpp"
 #include "python_solver.hpp"
@@ -213,6 +214,7 @@ py::dict compare(const std::string& name, const std::string& label, const std::s
 // with the GIL held deadlocked.
 void annotate(const std::string& path, const std::map<std::string, std::string>& attributes) {
   py::gil_scoped_release release;
+  const ForksWait forks_wait;
   H5Writer h5 = H5Writer::append(path);
   for (const auto& [key, value] : attributes) h5.setAttribute("/", key, value);
   h5.commit();
@@ -224,6 +226,7 @@ py::dict readPointsPy(const std::string& path) {
   std::map<std::string, PointRecord> points;
   {
     py::gil_scoped_release release;
+    const ForksWait forks_wait;
     points = readPoints(path);
   }
   py::dict out;

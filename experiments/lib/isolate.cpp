@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <hdf5.h>
 #include <poll.h>
+#include <pthread.h>
 #include <signal.h>
 #include <sys/prctl.h>
 #include <sys/resource.h>
@@ -11,11 +12,14 @@
 
 #include <cerrno>
 #include <chrono>
+#include <condition_variable>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <mutex>
 #include <stdexcept>
+#include <utility>
 #include <vector>
 
 #include "experiments/lib/h5writer.hpp"
@@ -222,6 +226,45 @@ Limits limitsFor(const std::vector<std::string>& files) {
           residentBytes(getpid()) + (std::uint64_t(1) << 30) + 16 * std::uint64_t(size)};
 }
 
+// ForksWait: the fork holds `mutex` from its prepare handler to its parent and child handlers,
+// so that no ForksWait starts meanwhile and the child finds the mutex as its thread left it.
+namespace forks_wait {
+std::mutex mutex;
+std::condition_variable left;
+int inside = 0;                  // live ForksWait objects, all threads
+thread_local int depth = 0;      // this thread's (and its own forks: no waiting)
+thread_local bool held = false;  // this thread's fork holds `mutex`
+
+void prepare() {
+  if (depth > 0) return;
+  std::unique_lock lock(mutex);
+  left.wait_for(lock, std::chrono::seconds(2), [] { return inside == 0; });
+  lock.release();
+  held = true;
+}
+void parent() {
+  if (std::exchange(held, false)) mutex.unlock();
+}
+void child() {
+  if (!std::exchange(held, false)) return;
+  inside = 0;  // (the threads that were inside are not in this process)
+  mutex.unlock();
+}
+void enter() {
+  static std::once_flag registered;
+  std::call_once(registered, [] { pthread_atfork(prepare, parent, child); });
+  const std::lock_guard lock(mutex);
+  ++inside;
+}
+void leave() {
+  {
+    const std::lock_guard lock(mutex);
+    --inside;
+  }
+  left.notify_all();
+}
+}  // namespace forks_wait
+
 // fork() while this thread holds HDF5's API lock: in the callback of an iteration over a
 // property list's properties (a thread-safe HDF5 holds its recursive lock while it calls back).
 // No other thread of the process is then inside HDF5 (a Python thread in h5py, say): the child,
@@ -239,8 +282,10 @@ pid_t forkOutsideOtherHdf5Calls(const std::function<void()>& child) {
   auto forkHere = [](hid_t, const char*, void* data) -> herr_t {
     Call& c = *static_cast<Call*>(data);
     c.forked = true;
+    ++forks_wait::depth;
     c.pid = fork();
     c.err = errno;
+    --forks_wait::depth;
     if (c.pid == 0) {
       (*c.child)();
       _exit(1);
@@ -361,6 +406,16 @@ Outcome runForked(const std::function<std::string()>& work, const Limits& limits
 }
 
 }  // namespace
+
+ForksWait::ForksWait() {
+  forks_wait::enter();
+  ++forks_wait::depth;
+}
+
+ForksWait::~ForksWait() {
+  --forks_wait::depth;
+  forks_wait::leave();
+}
 
 void noteReading(const std::string& path) {
   if (inChild) sendRecord(kReading, path);

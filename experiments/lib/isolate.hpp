@@ -42,10 +42,10 @@
 //     inherited mid-call (the child then waited for its lock until its time ended, and the file
 //     was reported damaged). So a caller must not hold what such a thread may wait for inside
 //     HDF5: the Python module calls in without the GIL (an h5py callback takes it). So another
-//     thread's fork can land while this thread is inside HDF5, and that process hangs at its
-//     first HDF5 call (the README says so). Locks of other libraries are not covered. The child is
-//     done when it ends, also where another process (forked meanwhile by another thread) still
-//     holds its pipe open.
+//     thread's fork could land while this thread is inside HDF5, and that process hang at its
+//     first HDF5 call: ForksWait below makes such forks wait. Locks of other libraries are not
+//     covered. The child is done when it ends, also where another process (forked meanwhile by
+//     another thread) still holds its pipe open.
 #pragma once
 
 #include <functional>
@@ -58,6 +58,21 @@ std::string inChildProcess(const std::function<std::string()>& work,
                            const std::vector<std::string>& files,
                            const std::vector<std::string>& remove_on_crash = {});
 bool vetInChildProcess(const std::function<void()>& work, const std::vector<std::string>& files);
+
+// While one lives, a fork by another thread (os.fork, multiprocessing's "fork" start method)
+// waits, up to 2 s, for it to end: a process forked while a thread is inside HDF5 inherits
+// HDF5's lock held by a thread it does not have and hangs at its first HDF5 call (13 of 40
+// children beside a Python read_points loop). After 2 s the fork goes on: a thread inside HDF5
+// may be waiting for something the forking thread holds (the GIL). For calls into HDF5 made
+// without holding what a forking thread may hold (the Python module's, without the GIL); the
+// reader's own forks (runForked) wait for nothing.
+class ForksWait {
+ public:
+  ForksWait();
+  ~ForksWait();
+  ForksWait(const ForksWait&) = delete;
+  ForksWait& operator=(const ForksWait&) = delete;
+};
 void noteReading(const std::string& path);
 void requireUndamaged(const std::string& path, const std::string& scratch_copy = "");
 

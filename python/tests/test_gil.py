@@ -235,3 +235,49 @@ def test_children_forked_during_a_compare_keep_neither_its_lock_nor_its_tmp_file
             os.kill(pid, signal.SIGKILL)
             os.waitpid(pid, 0)
         thread.join()
+
+
+def test_processes_forked_beside_read_points_do_not_inherit_hdf5_held(tmp_path):
+    """A thread loops read_points (inside HDF5 without the GIL) while the main thread forks
+    processes that open the file with h5py: a fork waits for the call to leave HDF5, so no
+    child inherits HDF5's lock held by a thread it does not have (13 of 40 children hung at
+    their first HDF5 call, and were stopped by an alarm, before the fork waited)."""
+    pytest.importorskip("h5py")
+    out = tmp_path / "c.h5"
+    minv.compare(ScipyCholesky, sizes=(4,), topologies=("serial",), against=("abi",), out=out,
+                 repetitions=1, min_time=0.001)
+    script = textwrap.dedent(f"""
+        import os, signal, threading, time
+        import h5py
+        import minv
+
+        path = {str(out)!r}
+        stop = threading.Event()
+
+        def loop():
+            while not stop.is_set():
+                minv.read_points(path)
+
+        thread = threading.Thread(target=loop)
+        thread.start()
+        hung = 0
+        try:
+            for _ in range(40):
+                time.sleep(0.005)
+                pid = os.fork()
+                if pid == 0:
+                    signal.alarm(3)
+                    with h5py.File(path, "r") as f:
+                        f.attrs.keys()
+                    os._exit(0)
+                _, status = os.waitpid(pid, 0)
+                hung += os.WIFSIGNALED(status)
+        finally:
+            stop.set()
+            thread.join()
+        print("hung", hung)
+    """)
+    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                         timeout=300)
+    assert run.returncode == 0, run.stderr[-3000:]
+    assert run.stdout.split() == ["hung", "0"], run.stdout
