@@ -226,43 +226,63 @@ Limits limitsFor(const std::vector<std::string>& files) {
           residentBytes(getpid()) + (std::uint64_t(1) << 30) + 16 * std::uint64_t(size)};
 }
 
-// ForksWait: the fork holds `mutex` from its prepare handler to its parent and child handlers,
-// so that no ForksWait starts meanwhile and the child finds the mutex as its thread left it.
+// ForksWait: a fork holds *mutex from its prepare handler to its parent and child handlers, so
+// that no ForksWait starts meanwhile. Neither object is ever destroyed, and a child makes new
+// ones: other threads' waits and holds on the old ones are not in it (a child whose exit ran
+// the old condition variable's destructor waited forever for such a waiter). Before glibc 2.36
+// all prepare handlers run under one lock, where this thread's own fork can queue behind another
+// thread's wait.
 namespace forks_wait {
-std::mutex mutex;
-std::condition_variable left;
-int inside = 0;                  // live ForksWait objects, all threads
-thread_local int depth = 0;      // this thread's (and its own forks: no waiting)
-thread_local bool held = false;  // this thread's fork holds `mutex`
+std::mutex* mutex = new std::mutex;
+std::condition_variable* left = new std::condition_variable;
+int inside = 0;                  // live ForksWait objects of all threads, less those waiting
+thread_local int mine = 0;       // this thread's live ForksWait objects
+thread_local int depth = 0;      // the same, and this thread's own forks: these wait for nothing
+thread_local bool held = false;  // this thread's fork holds *mutex
 
 void prepare() {
   if (depth > 0) return;
-  std::unique_lock lock(mutex);
-  left.wait_for(lock, std::chrono::seconds(2), [] { return inside == 0; });
+  std::unique_lock lock(*mutex);
+  left->wait_for(lock, std::chrono::seconds(2), [] { return inside == 0; });
   lock.release();
   held = true;
 }
 void parent() {
-  if (std::exchange(held, false)) mutex.unlock();
+  if (std::exchange(held, false)) mutex->unlock();
 }
 void child() {
-  if (!std::exchange(held, false)) return;
-  inside = 0;  // (the threads that were inside are not in this process)
-  mutex.unlock();
+  held = false;
+  mutex = new std::mutex;
+  left = new std::condition_variable;
+  inside = mine;  // (this thread is the only one here)
 }
 void enter() {
   static std::once_flag registered;
   std::call_once(registered, [] { pthread_atfork(prepare, parent, child); });
-  const std::lock_guard lock(mutex);
+  const std::lock_guard lock(*mutex);
   ++inside;
 }
 void leave() {
   {
-    const std::lock_guard lock(mutex);
+    const std::lock_guard lock(*mutex);
     --inside;
   }
-  left.notify_all();
+  left->notify_all();
 }
+
+// While a thread with a ForksWait waits for its reading child it is not inside HDF5: other
+// threads' forks do not wait for it then (a large file's check takes seconds).
+struct Waiting {
+  const bool counted = mine > 0;
+  Waiting() {
+    if (counted) leave();
+  }
+  ~Waiting() {
+    if (counted) enter();
+  }
+  Waiting(const Waiting&) = delete;
+  Waiting& operator=(const Waiting&) = delete;
+};
 }  // namespace forks_wait
 
 // fork() while this thread holds HDF5's API lock: in the callback of an iteration over a
@@ -324,6 +344,7 @@ Outcome runForked(const std::function<std::string()>& work, const Limits& limits
     throw std::runtime_error(std::string("cannot fork: ") + std::strerror(errno));
   }
   close(fds[1]);
+  const forks_wait::Waiting waiting;
   // Its records until it closes the pipe or ends; every 50 ms its time and memory checked
   Outcome o;
   std::string bytes;
@@ -409,11 +430,11 @@ Outcome runForked(const std::function<std::string()>& work, const Limits& limits
 
 ForksWait::ForksWait() {
   forks_wait::enter();
-  ++forks_wait::depth;
+  ++forks_wait::mine, ++forks_wait::depth;
 }
 
 ForksWait::~ForksWait() {
-  --forks_wait::depth;
+  --forks_wait::mine, --forks_wait::depth;
   forks_wait::leave();
 }
 

@@ -59,13 +59,13 @@ std::string inChildProcess(const std::function<std::string()>& work,
                            const std::vector<std::string>& remove_on_crash = {});
 bool vetInChildProcess(const std::function<void()>& work, const std::vector<std::string>& files);
 
-// While one lives, a fork by another thread (os.fork, multiprocessing's "fork" start method)
-// waits, up to 2 s, for it to end: a process forked while a thread is inside HDF5 inherits
-// HDF5's lock held by a thread it does not have and hangs at its first HDF5 call (13 of 40
-// children beside a Python read_points loop). After 2 s the fork goes on: a thread inside HDF5
-// may be waiting for something the forking thread holds (the GIL). For calls into HDF5 made
-// without holding what a forking thread may hold (the Python module's, without the GIL); the
-// reader's own forks (runForked) wait for nothing.
+// While one lives (and its thread is not waiting for a reading child), a fork by another thread
+// (os.fork, multiprocessing's "fork" start method) waits, up to 2 s, for it to end: a process
+// forked while a thread is inside HDF5 inherits HDF5's lock held by a thread it does not have and
+// hangs at its first HDF5 call (13 of 40 children beside a Python read_points loop). After 2 s the
+// fork goes on: a thread inside HDF5 may be waiting for something the forking thread holds (the
+// GIL). For calls into HDF5 made without holding what a forking thread may hold (the Python
+// module's, without the GIL); the reader's own forks (runForked) wait for nothing.
 class ForksWait {
  public:
   ForksWait();
