@@ -311,19 +311,28 @@ void H5Writer::lockWorkingCopy() {
 }
 
 // Create mode's file, which HDF5 writes, or append mode's working copy, which HDF5 reads into
-// memory and keeps there (the core driver without a backing store; publish() writes its image);
-// HDF5's own lock off there (the writer holds its own), strong close degree (closing the file
-// closes anything still open in it), and objects in the HDF5 1.8 format, whose metadata carry
-// checksums: with one to two random bytes flipped, h5py read a file of 6 groups of 25 attributes
-// with a silently different value in 8 of 250 trials and crashed in 5, against 37 and 22 in the
-// earliest format.
-hid_t H5Writer::openWorkingCopy(bool create) const {
-  Hid fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
-  if (!fapl.ok() || (append_ && H5Pset_fapl_core(fapl, kImageIncrement, false) < 0) ||
+// memory and keeps there (the core driver without a backing store, growing 4 MiB at a time;
+// publish() writes its image) with HDF5's own lock off (the writer holds its own); both with a
+// strong close degree (closing the file closes anything still open in it) and objects in the
+// HDF5 1.8 format, whose metadata carry checksums: with one to two random bytes flipped, h5py
+// read a file of 6 groups of 25 attributes with a silently different value in 8 of 250 trials
+// and crashed in 5, against 37 and 22 in the earliest format.
+hid_t writerFileAccess(bool append) {
+  const hid_t fapl = H5Pcreate(H5P_FILE_ACCESS);
+  if (fapl < 0) return fapl;
+  if ((append && H5Pset_fapl_core(fapl, std::size_t(1) << 22, false) < 0) ||
       H5Pset_fclose_degree(fapl, H5F_CLOSE_STRONG) < 0 ||
       H5Pset_libver_bounds(fapl, H5F_LIBVER_V18, H5F_LIBVER_V18) < 0 ||
-      (append_ && H5Pset_file_locking(fapl, false, true) < 0))
-    fail("set up file access for", file_path_);
+      (append && H5Pset_file_locking(fapl, false, true) < 0)) {
+    H5Pclose(fapl);
+    return -1;
+  }
+  return fapl;
+}
+
+hid_t H5Writer::openWorkingCopy(bool create) const {
+  Hid fapl(writerFileAccess(append_), H5Pclose);
+  if (!fapl.ok()) fail("set up file access for", file_path_);
   const hid_t f = create ? H5Fcreate(file_path_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl)
                          : H5Fopen(file_path_.c_str(), H5F_ACC_RDWR, fapl);
   if (f < 0) fail(create ? "create" : "open for appending", append_ ? path_ : file_path_);
@@ -358,8 +367,9 @@ void H5Writer::writeImage(const std::string& to) const {
   const bool exists = stat(path_.c_str(), &existing) == 0;
   const int fd = open(to.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
   if (fd < 0) throw std::runtime_error("cannot create " + to + ": " + std::strerror(errno));
-  auto failed = [&](int err) {
-    close(fd);
+  // (closed already where `closed`)
+  auto failed = [&](int err, bool closed = false) {
+    if (!closed) close(fd);
     std::error_code ec;
     std::filesystem::remove(to, ec);
     throw std::runtime_error("cannot write '" + path_ + "' (" + to + "): " + std::strerror(err));
@@ -376,12 +386,7 @@ void H5Writer::writeImage(const std::string& to) const {
   };
   writeAll(reinterpret_cast<const unsigned char*>(userblock_.data()), userblock_.size());
   writeAll(image.get(), static_cast<std::size_t>(size));
-  if (close(fd) != 0) {
-    const int err = errno;
-    std::error_code ec;
-    std::filesystem::remove(to, ec);
-    throw std::runtime_error("cannot write '" + path_ + "' (" + to + "): " + std::strerror(err));
-  }
+  if (close(fd) != 0) failed(errno, true);
 }
 
 // Append mode: the file's image written beside it and moved over it.

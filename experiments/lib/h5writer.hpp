@@ -52,7 +52,6 @@
 
 #include <Eigen/Core>
 #include <concepts>
-#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -65,6 +64,10 @@ void silenceHdf5Errors();
 // In a forked child (isolate.hpp): forget the parent's tmp files, so that a signal to the child
 // alone does not remove them.
 void forgetInheritedTmpFiles();
+// The file-access list (to close with H5Pclose; negative on failure) of the writer's files: a
+// create-mode file, or append mode's working copy (`append`), which HDF5 keeps in memory. The
+// child's trial write (isolate.hpp) opens its copy with the same.
+hid_t writerFileAccess(bool append);
 
 // An HDF5 identifier closed by its own close function when it goes out of scope (the writer's,
 // the reader's and the child's reads in isolate.cpp).
@@ -160,8 +163,6 @@ class H5Writer {
                       hid_t mem_type, const void* data);
   [[noreturn]] void fail(const std::string& what, const std::string& object) const;
 
-  // The in-memory file grows by this many bytes at a time.
-  static constexpr std::size_t kImageIncrement = std::size_t(1) << 22;
   std::string path_, file_path_, publish_path_;
   std::string userblock_;  // append mode: the file's user block, if it has one
   bool append_ = false, committed_ = false;

@@ -170,11 +170,8 @@ void readWholeFile(const std::string& path) {
 // own lock is off) opened as the writer opens its working copy (in memory, HDF5 1.8 objects): a
 // group with a string attribute at the root and in "points", then the file's image taken.
 void trialWrite(const std::string& copy) {
-  Hid fapl{H5Pcreate(H5P_FILE_ACCESS), H5Pclose};
-  if (fapl < 0 || H5Pset_file_locking(fapl, false, true) < 0 ||
-      H5Pset_fapl_core(fapl, std::size_t(1) << 22, false) < 0 ||
-      H5Pset_libver_bounds(fapl, H5F_LIBVER_V18, H5F_LIBVER_V18) < 0)
-    return;
+  Hid fapl{writerFileAccess(true), H5Pclose};
+  if (fapl < 0) return;
   Hid file{H5Fopen(copy.c_str(), H5F_ACC_RDWR, fapl), H5Fclose};
   if (file < 0) return;
   for (const char* parent : {"/", "/points"}) {
@@ -235,13 +232,14 @@ Limits limitsFor(const std::vector<std::string>& files) {
 namespace forks_wait {
 std::mutex* mutex = new std::mutex;
 std::condition_variable* left = new std::condition_variable;
-int inside = 0;                  // live ForksWait objects of all threads, less those waiting
-thread_local int mine = 0;       // this thread's live ForksWait objects
-thread_local int depth = 0;      // the same, and this thread's own forks: these wait for nothing
-thread_local bool held = false;  // this thread's fork holds *mutex
+int inside = 0;                      // live ForksWait objects of all threads, less those waiting
+thread_local int mine = 0;           // this thread's live ForksWait objects
+thread_local bool own_fork = false;  // this thread is forking a reading child
+thread_local bool held = false;      // this thread's fork holds *mutex
 
+// (a fork from inside a ForksWait, or the reader's own, waits for nothing)
 void prepare() {
-  if (depth > 0) return;
+  if (mine > 0 || own_fork) return;
   std::unique_lock lock(*mutex);
   left->wait_for(lock, std::chrono::seconds(2), [] { return inside == 0; });
   lock.release();
@@ -302,10 +300,10 @@ pid_t forkOutsideOtherHdf5Calls(const std::function<void()>& child) {
   auto forkHere = [](hid_t, const char*, void* data) -> herr_t {
     Call& c = *static_cast<Call*>(data);
     c.forked = true;
-    ++forks_wait::depth;
+    forks_wait::own_fork = true;
     c.pid = fork();
     c.err = errno;
-    --forks_wait::depth;
+    forks_wait::own_fork = false;
     if (c.pid == 0) {
       (*c.child)();
       _exit(1);
@@ -367,8 +365,8 @@ Outcome runForked(const std::function<std::string()>& work, const Limits& limits
     }
     if (ready < 0 && errno != EINTR) break;
     // Ended, but the pipe still open: a process that another thread forked meanwhile holds its
-    // write end (it waited for that process, 20 s, and reported the file damaged); what the
-    // child sent is in the pipe
+    // write end (the parent waited for that process to end too, and past its limit reported
+    // the file damaged); what the child sent is in the pipe
     const pid_t w = waitpid(pid, &o.status, WNOHANG);
     if (w == pid || (w < 0 && errno == ECHILD)) {
       if (w != pid) o.status = 0;
@@ -430,11 +428,11 @@ Outcome runForked(const std::function<std::string()>& work, const Limits& limits
 
 ForksWait::ForksWait() {
   forks_wait::enter();
-  ++forks_wait::mine, ++forks_wait::depth;
+  ++forks_wait::mine;
 }
 
 ForksWait::~ForksWait() {
-  --forks_wait::mine, --forks_wait::depth;
+  --forks_wait::mine;
   forks_wait::leave();
 }
 

@@ -62,8 +62,9 @@ bool vetInChildProcess(const std::function<void()>& work, const std::vector<std:
 // While one lives (and its thread is not waiting for a reading child), a fork by another thread
 // (os.fork, multiprocessing's "fork" start method) waits, up to 2 s, for it to end: a process
 // forked while a thread is inside HDF5 inherits HDF5's lock held by a thread it does not have and
-// hangs at its first HDF5 call (13 of 40 children beside a Python read_points loop). After 2 s the
-// fork goes on: a thread inside HDF5 may be waiting for something the forking thread holds (the
+// hangs at its first HDF5 call (9 and 13 of 40 children beside a read_points loop, in two runs
+// of python/tests/test_gil.py's test_processes_forked_beside_read_points_… without it). After 2 s
+// the fork goes on: a thread inside HDF5 may be waiting for something the forking thread holds (the
 // GIL). For calls into HDF5 made without holding what a forking thread may hold (the Python
 // module's, without the GIL); the reader's own forks (runForked) wait for nothing.
 class ForksWait {
