@@ -516,6 +516,55 @@ TEST(H5Writer, AppendModeHasOneWriterAndFollowsLinks) {
   EXPECT_EQ(readData<double>(f, "p1/x", H5T_NATIVE_DOUBLE).size(), 9u);
 }
 
+// A writer inherited by a forked process writes nothing there (its files are the parent's):
+// every call is an error naming the parent, and its destructor removes nothing; the parent
+// goes on and commits what it wrote.
+TEST(H5Writer, AForkedProcessCannotWriteThroughAnInheritedWriter) {
+  for (const bool append : {true, false}) {
+    H5Dir dir;
+    const std::string path = dir / "parent.h5";
+    H5Writer w = append ? H5Writer::append(path) : H5Writer(path);
+    w.writeMatrix("x", Eigen::MatrixXd::Identity(2, 2));
+    if (append) w.flush();
+    const std::string tmp = path + (append ? ".append.tmp" : ".tmp");
+    const auto before = fs::file_size(tmp);
+    const pid_t pid = fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      // exit status: the number of calls that were let through
+      int through = 0;
+      auto refused = [&](auto&& call) {
+        try {
+          call();
+          ++through;
+        } catch (const std::runtime_error& e) {
+          if (std::string(e.what()).find("belongs to process") == std::string::npos) ++through;
+        }
+      };
+      {
+        H5Writer inherited(std::move(w));
+        refused([&] { inherited.writeMatrix("y", Eigen::MatrixXd::Identity(3, 3)); });
+        refused([&] { inherited.setAttribute("/", "child", 1); });
+        refused([&] { inherited.flush(); });
+        refused([&] { inherited.commit(); });
+      }
+      _exit(through);
+    }
+    int status = 0;
+    waitpid(pid, &status, 0);
+    ASSERT_TRUE(WIFEXITED(status)) << "status " << status;
+    EXPECT_EQ(WEXITSTATUS(status), 0) << "calls let through in the child (append " << append
+                                      << ")";
+    EXPECT_TRUE(fs::exists(tmp));
+    EXPECT_EQ(fs::file_size(tmp), before);
+    w.setAttribute("/", "parent", 1);
+    w.commit();
+    File f(path);
+    EXPECT_EQ(readData<double>(f, "x", H5T_NATIVE_DOUBLE).size(), 4u);
+    EXPECT_LE(H5Lexists(f.id, "y", H5P_DEFAULT), 0);
+  }
+}
+
 // A flipped bit in an attribute's value is an error on reading, not another value: the writer's
 // objects carry checksums (the HDF5 1.8 format). Appending to a file in the earliest format
 // (the committed results before 2026-12-07) works too.

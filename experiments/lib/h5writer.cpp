@@ -440,6 +440,11 @@ void H5Writer::requireOpen(const char* what) const {
   if (file_ < 0)
     throw std::runtime_error(std::string("HDF5: cannot ") + what + " in " + file_path_ +
                              ": the writer was already committed");
+  // A writer inherited by a forked process: its file and tmp files are the parent's.
+  if (owner_ != getpid())
+    throw std::runtime_error(std::string("HDF5: cannot ") + what + " in " + file_path_ +
+                             ": the writer belongs to process " + std::to_string(owner_) +
+                             ", from which this process was forked");
 }
 
 void H5Writer::fail(const std::string& what, const std::string& object) const {
