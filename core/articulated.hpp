@@ -64,87 +64,85 @@ void forJointSize(int k, Step&& step) {
 template <class T, int K>
 using MatJ = Eigen::Matrix<T, K, K, 0, K == Eigen::Dynamic ? 6 : K, K == Eigen::Dynamic ? 6 : K>;
 
-// Inverse of a small symmetric positive-definite k×k matrix (k ≤ 6) by Cholesky, D = L Lᵀ
-// (3×3 and 6×6 by its square-root-free form L Δ Lᵀ); Dinv is k×k on entry. K: k at compile time
-// (or Eigen::Dynamic). L Δ Lᵀ has one division per column on the chain from one column to the
-// next, where Cholesky has a square root and a division; the 3×3 adjugate and pivots from
-// leading minors were far less accurate (paper/ENGINEERING.md, "Small SPD inverses").
-template <class T, int K = Eigen::Dynamic, class In, class Out>
-void spdInverse(const In& D, Out&& Dinv) {
-  using std::sqrt;
-  const int k = K == Eigen::Dynamic ? static_cast<int>(D.rows()) : K;
-  if (k == 1) {
-    Dinv(0, 0) = T(1) / D(0, 0);
-    return;
-  }
-  if constexpr (K == 3 || K == 6) {
-    // 3×3 (spherical joints) and 6×6 (floating): D = L Δ Lᵀ with L unit lower triangular, no
-    // square roots (the same elimination as Cholesky, as stable on SPD matrices); E = L Δ below
-    // the diagonal, r_j = 1 / Δ_jj.
-    T L[K][K], E[K][K], r[K];
-    for (int j = 0; j < K; ++j) {
+// A small symmetric positive-definite k×k matrix (k ≤ 6) factored as D = L Δ Lᵀ, L unit lower
+// triangular, without square roots (the same elimination as Cholesky, as stable on SPD
+// matrices): L below the diagonal and r_j = 1 / Δ_jj. N: k at compile time, or 6 with k given
+// at run time (Eigen::Dynamic). One division per column on the chain from one column to the
+// next, where Cholesky has a square root and a division.
+template <class T, int K>
+struct SpdFactor {
+  static constexpr int N = K == Eigen::Dynamic ? 6 : K;
+  int k = N;
+  T L[N][N] = {}, r[N] = {};
+
+  template <class In>
+  explicit SpdFactor(const In& D, int size = N) : k(K == Eigen::Dynamic ? size : K) {
+    T E[N][N];  // L Δ below the diagonal
+    for (int j = 0; j < k; ++j) {
       T s = D(j, j);
       for (int p = 0; p < j; ++p) s -= L[j][p] * E[j][p];
       r[j] = T(1) / s;
-      for (int i = j + 1; i < K; ++i) {
+      for (int i = j + 1; i < k; ++i) {
         T t = D(i, j);
         for (int p = 0; p < j; ++p) t -= E[i][p] * L[j][p];
         E[i][j] = t;
         L[i][j] = t * r[j];
       }
     }
+  }
+
+  // D⁻¹ = Mᵀ Δ⁻¹ M with M = L⁻¹, into the k×k Dinv (exactly symmetric).
+  template <class Out>
+  void inverse(Out&& Dinv) const {
     // M = L⁻¹ (unit lower triangular, below the diagonal)
-    T M[K][K];
-    for (int j = 0; j < K; ++j)
-      for (int i = j + 1; i < K; ++i) {
+    T M[N][N];
+    for (int j = 0; j < k; ++j)
+      for (int i = j + 1; i < k; ++i) {
         T t = -L[i][j];
         for (int p = j + 1; p < i; ++p) t -= L[i][p] * M[p][j];
         M[i][j] = t;
       }
-    // D⁻¹ = Mᵀ Δ⁻¹ M, with R = Δ⁻¹ M below the diagonal formed once
-    T R[K][K];
-    for (int j = 0; j < K; ++j)
-      for (int p = j + 1; p < K; ++p) R[p][j] = r[p] * M[p][j];
-    for (int i = 0; i < K; ++i)
+    // R = Δ⁻¹ M below the diagonal, formed once
+    T R[N][N];
+    for (int j = 0; j < k; ++j)
+      for (int p = j + 1; p < k; ++p) R[p][j] = r[p] * M[p][j];
+    for (int i = 0; i < k; ++i)
       for (int j = 0; j <= i; ++j) {
         T t = (i == j ? r[i] : R[i][j]);
-        for (int p = i + 1; p < K; ++p) t += M[p][i] * R[p][j];
+        for (int p = i + 1; p < k; ++p) t += M[p][i] * R[p][j];
         Dinv(i, j) = t;
         Dinv(j, i) = t;
       }
+  }
+
+  // Y = X D⁻¹ for k columns X[0 … k−1] (any type with + − and a scalar ·): X L⁻ᵀ, then Δ⁻¹,
+  // then L⁻¹, by substitution. The same multiplications and additions as X times the explicit
+  // D⁻¹, and Y D = X to rounding however ill-conditioned D is, which X · D⁻¹ is not.
+  template <class C>
+  void solveRight(const C* X, C* Y) const {
+    C W[N];
+    for (int j = 0; j < k; ++j) {
+      W[j] = X[j];
+      for (int p = 0; p < j; ++p) W[j] = W[j] - W[p] * L[j][p];
+    }
+    for (int j = k - 1; j >= 0; --j) {
+      Y[j] = W[j] * r[j];
+      for (int p = j + 1; p < k; ++p) Y[j] = Y[j] - Y[p] * L[p][j];
+    }
+  }
+};
+
+// Inverse of a small symmetric positive-definite k×k matrix (k ≤ 6) by SpdFactor; Dinv is k×k
+// on entry. K: k at compile time (or Eigen::Dynamic). The 3×3 adjugate and pivots from leading
+// minors were far less accurate (paper/ENGINEERING.md, "Small SPD inverses").
+template <class T, int K = Eigen::Dynamic, class In, class Out>
+void spdInverse(const In& D, Out&& Dinv) {
+  const int k = K == Eigen::Dynamic ? static_cast<int>(D.rows()) : K;
+  if (k == 1) {
+    Dinv(0, 0) = T(1) / D(0, 0);
     return;
   }
-  // Factor D = L Lᵀ; keep 1/L_jj.
-  MatJ<T, K> L = MatJ<T, K>::Zero(k, k);
-  Eigen::Matrix<T, K, 1, 0, K == Eigen::Dynamic ? 6 : K, 1> rdiag(k);
-  for (int j = 0; j < k; ++j) {
-    T s = D(j, j);
-    for (int p = 0; p < j; ++p) s -= L(j, p) * L(j, p);
-    L(j, j) = sqrt(s);
-    rdiag(j) = T(1) / L(j, j);
-    for (int i = j + 1; i < k; ++i) {
-      T t = D(i, j);
-      for (int p = 0; p < j; ++p) t -= L(i, p) * L(j, p);
-      L(i, j) = t * rdiag(j);
-    }
-  }
-  // Linv = L⁻¹ by forward substitution, then D⁻¹ = L⁻ᵀ L⁻¹.
-  MatJ<T, K> Linv = MatJ<T, K>::Zero(k, k);
-  for (int j = 0; j < k; ++j) {
-    Linv(j, j) = rdiag(j);
-    for (int i = j + 1; i < k; ++i) {
-      T t = T(0);
-      for (int p = j; p < i; ++p) t -= L(i, p) * Linv(p, j);
-      Linv(i, j) = t * rdiag(i);
-    }
-  }
-  for (int i = 0; i < k; ++i)
-    for (int j = 0; j <= i; ++j) {
-      T t = T(0);
-      for (int p = i; p < k; ++p) t += Linv(p, i) * Linv(p, j);
-      Dinv(i, j) = t;
-      Dinv(j, i) = t;
-    }
+  SpdFactor<T, K>(D, k).inverse(Dinv);
 }
 
 // One body of k DOFs (K: k at compile time, or Eigen::Dynamic) at v, IA_i in columns:
@@ -166,20 +164,27 @@ MINV_INLINE void articulatedStep(std::integral_constant<int, K>, const Kinematic
         (IA[0] * s[0] + IA[2] * s[2] + IA[4] * s[4]) + (IA[1] * s[1] + IA[3] * s[3] + IA[5] * s[5]);
     U[j].store(art.U.col(v + j).data());
   }
-  // D = Sᵀ U and its inverse
+  // D = Sᵀ U
   MatJ<T, K> D;
   if constexpr (K == Eigen::Dynamic) D.resize(k, k);
   for (int c = 0; c < k; ++c)
     for (int r = 0; r < k; ++r) D(r, c) = dot(S[r], U[c]);
   auto Dinv = art.Dinv[i].template topLeftCorner<K, K>(k, k);
-  spdInverse<T, K>(D, Dinv);
-  // U D⁻¹
-  for (int j = 0; j < k; ++j) {
-    UD[j] = U[0] * Dinv(0, j);
-    for (int l = 1; l < k; ++l) UD[j] = UD[j] + U[l] * Dinv(l, j);
-    UD[j].store(art.UDinv.col(v + j).data());
+  if constexpr (K == 1) {
+    // D⁻¹ and U D⁻¹
+    Dinv(0, 0) = T(1) / D(0, 0);
+    UD[0] = U[0] * Dinv(0, 0);
+    art.dinv(v) = Dinv(0, 0);
+  } else {
+    // D⁻¹, and U D⁻¹ by substitution with D's factors: through the explicit D⁻¹ a light body
+    // above a heavy one (D's condition 1e9) left Ia S = U (1 − D⁻¹D) far from zero, and M⁻¹ of
+    // an alternating heavy/light spherical chain wrong by 73 % (conformance case
+    // serial_spherical_alternating_n8)
+    const SpdFactor<T, K> F(D, k);
+    F.inverse(Dinv);
+    F.solveRight(U, UD);
   }
-  if constexpr (K == 1) art.dinv(v) = Dinv(0, 0);
+  for (int j = 0; j < k; ++j) UD[j].store(art.UDinv.col(v + j).data());
   if (!parent) return;
   // Ia = IA − (U D⁻¹) Uᵀ
   for (int c = 0; c < 6; ++c) {

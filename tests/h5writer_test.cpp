@@ -553,8 +553,7 @@ TEST(H5Writer, AForkedProcessCannotWriteThroughAnInheritedWriter) {
     int status = 0;
     waitpid(pid, &status, 0);
     ASSERT_TRUE(WIFEXITED(status)) << "status " << status;
-    EXPECT_EQ(WEXITSTATUS(status), 0) << "calls let through in the child (append " << append
-                                      << ")";
+    EXPECT_EQ(WEXITSTATUS(status), 0) << "calls let through in the child (append " << append << ")";
     EXPECT_TRUE(fs::exists(tmp));
     EXPECT_EQ(fs::file_size(tmp), before);
     w.setAttribute("/", "parent", 1);

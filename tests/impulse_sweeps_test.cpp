@@ -517,7 +517,7 @@ TEST(ImpulseSweeps, AbiFlushesSubnormalsAndRestoresTheMode) {
   }
 }
 
-// The joint blocks' inverse D⁻¹ (spdInverse: 3×3 and 6×6 by L Δ Lᵀ, other sizes by Cholesky)
+// The joint blocks' inverse D⁻¹ (spdInverse: every size above 1 by L Δ Lᵀ, SpdFactor)
 // on SPD matrices with condition numbers up to 1e12, against Eigen's LDLᵀ solve in long double:
 // relative error ≤ 50·κ·ε (backward stable; an adjugate formula's error grows as κ²). Each size
 // as the articulated pass compiles it (3 and 6 fixed) and at run time (Eigen::Dynamic).
