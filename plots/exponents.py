@@ -1,6 +1,6 @@
 """Fitted scaling exponents: the slope of log(time) on log(n) for n ≥ 128 of every measured
-curve of the pipeline family (and of abi's and lapack's kernels), as a bar chart, against the
-paper's 2 (abi) and 3 (Cholesky). Reads results/timing.h5."""
+curve of the pipeline family, as a bar chart, against the paper's 2 (abi) and 3 (Cholesky).
+Reads results/timing.h5."""
 import matplotlib.pyplot as plt
 
 from analysis import EXPONENT_MIN_N, STYLE, exponents, load_timing

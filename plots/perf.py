@@ -33,8 +33,8 @@ ABI_COLUMNS = [  # dataset, header, format
     ("abi_gflops", "abi GFLOP/s (counted)", "{:.2f}"),
     ("abi_percent_of_dgemm", "% of dgemm", "{:.1f}"),
     ("abi_over_store", "abi / store n² doubles", "{:.2f}"),
-    ("abi_2thread_speedup", "2 threads / 1", "{:.2f}"),
-    ("abi_2copies_speedup", "2 copies at once / 1", "{:.2f}"),
+    ("abi_2thread_speedup", "speed-up on 2 threads (1-thread time / 2-thread time)", "{:.2f}"),
+    ("abi_2copies_speedup", "speed-up of 2 copies at once", "{:.2f}"),
     ("lapack_over_abi_solve8", "M⁻¹R, m = 8: lapack / abi", "{:.1f}"),
 ]
 
@@ -206,14 +206,14 @@ def parts_section(f):
              "changes in the sweeps). "
              "On two threads each thread makes its own configuration (one fork per call; "
              "sharing one was slower), so two threads can at best take configure + (pipeline "
-             "− configure) / 2: the bound beside the measured '2 threads / 1' (— where not "
+             "− configure) / 2: the bound beside the measured speed-up (1-thread time / 2-thread time; — where not "
              "measured). Where the bound is below a target, the target is out of reach of this "
              "design however fast each part gets in proportion; where the measured figure "
              "falls short of a bound above it, the loss is in running the parts on two threads "
              "at once, which this table does not show. The parts are those of the level in "
              "use; the other levels are in the per-level table below.", "",
              "| n | " + " | ".join(h for _, h in PARTS) +
-             " | inverse / store | 2 threads / 1: bound | measured |",
+             " | inverse / store | speed-up on 2 threads: bound | measured |",
              "|---" * (len(PARTS) + 4) + "|"]
     two = f["abi"]["serial"] if "abi" in f and "serial" in f["abi"] else None
     for i, nv in enumerate(n):
@@ -342,7 +342,7 @@ def machines_section():
             "gained on that machine with nothing shared but the machine itself, the reference "
             "for the first (— where the file predates that benchmark).", "",
             "| machine | lapack / abi n = 16 | n = 32 | % of dgemm n = 2048, pipeline | sweeps | "
-            "2 threads / 1 (/ 2 copies / 1) n = 512 | 1024 | 2048 | abi / store n = 4096 | "
+            "speed-up on 2 threads (of 2 copies) n = 512 | 1024 | 2048 | abi / store n = 4096 | "
             "avx2 level / store n = 4096 |",
             "|---|---|---|---|---|---|---|---|---|---|",
             "| target | ≥ 3 | ≥ 3 | | ≥ 35 | ≥ 1.85 | ≥ 1.85 | ≥ 1.85 | ≤ 2 | ≤ 2 |"] + rows

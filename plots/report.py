@@ -226,8 +226,9 @@ def main():
             "Θ(n·depth), the O(n³) of LAPACK runs at BLAS-3 speed); a slope above it means each "
             "operation gets slower as n grows, as it does when an unblocked code's working set "
             "outgrows the caches (the exponents table below has both). The thread rows come "
-            "from one pass of the sweep, each point about a second, on a machine shared with "
-            "other tenants: a one-thread point that ran slow inflates them, so the two-thread "
+            "from one pass of the sweep (each point a few hundredths of a second of timed runs: "
+            "Google Benchmark's minimum time per repetition, 5 repetitions), on a machine "
+            "shared with other tenants: a one-thread point that ran slow inflates them, so the two-thread "
             "row of abi also gives `bench_abi`'s figure (results/perf.h5, paper/PERFORMANCE.md: "
             "its own one- and two-thread runs, side by side).", ""]
 
