@@ -13,6 +13,7 @@
 #include "core/model.hpp"
 #include "experiments/lib/h5writer.hpp"
 #include "experiments/lib/isolate.hpp"
+#include "experiments/lib/timing.hpp"
 #include "generators/model_io.hpp"
 
 namespace minv {
@@ -105,7 +106,12 @@ AttrValue readAttribute(hid_t obj, const std::string& name, const std::string& f
         H5Tset_cset(mem, H5Tget_cset(type));
         char* str = nullptr;
         if (H5Aread(a, mem, &str) < 0) readFail("read attribute " + name, file);
-        v.s = str ? str : "";
+        // A null string, which minv never writes (an empty one reads as ""): its entry in the
+        // file's heap could not be read
+        if (!str)
+          throw std::runtime_error("'" + file + "' is damaged: attribute " + name +
+                                   " has no string in the file's heap");
+        v.s = str;
         H5free_memory(str);
       } else {
         requireFits(H5Tget_size(type), 1, file);
@@ -217,10 +223,16 @@ void copyGroup(hid_t src, H5Writer& h5, const std::string& dst, const std::strin
         std::vector<char*> raw(count, nullptr);
         if (count && H5Dread(ds, mem, H5S_ALL, H5S_ALL, H5P_DEFAULT, raw.data()) < 0)
           readFail("read strings " + child, file);
+        // (null strings, which minv never writes: their heap entries could not be read)
+        const bool missing = std::find(raw.begin(), raw.end(), nullptr) != raw.end();
         std::vector<std::string> v;
-        for (char* s : raw) v.emplace_back(s ? s : "");
+        if (!missing)
+          for (char* s : raw) v.emplace_back(s);
         Hid space(H5Dget_space(ds), H5Sclose);
         if (count) H5Dvlen_reclaim(mem, space, H5P_DEFAULT, raw.data());
+        if (missing)
+          throw std::runtime_error("'" + file + "' is damaged: dataset " + child +
+                                   " has strings missing from the file's heap");
         h5.writeStrings(path, v);
         break;
       }
@@ -383,6 +395,34 @@ int mergeHere(const std::vector<std::string>& inputs, const std::string& out) {
   return static_cast<int>(seen.size());
 }
 
+void requireNamedByAttributes(const PointRecord& rec, const std::string& name,
+                              const std::string& path) {
+  auto attr = [&](const char* key) {
+    const auto it = rec.attrs.find(key);
+    if (it == rec.attrs.end())
+      throw std::runtime_error("'" + path + "' is damaged: point " + name + " has no attribute " +
+                               key);
+    return it->second;
+  };
+  auto number = [&](const char* key) {
+    const std::string text = attr(key);
+    try {
+      return std::stoi(text);
+    } catch (const std::exception&) {
+      throw std::runtime_error("'" + path + "' is damaged: point " + name + "'s " + key + " is '" +
+                               text + "', not a number");
+    }
+  };
+  TimingPoint p{attr("family"), attr("solver"), attr("topology"), attr("base") == "floating",
+                number("n"),    number("m"),    number("threads")};
+  if (attr("base") != "floating" && attr("base") != "fixed")
+    throw std::runtime_error("'" + path + "' is damaged: point " + name + "'s base is '" +
+                             attr("base") + "'");
+  if (p.name() != name)
+    throw std::runtime_error("'" + path + "' is damaged: point " + name + "'s attributes name it " +
+                             p.name());
+}
+
 std::map<std::string, PointRecord> pointsHere(const std::string& path) {
   std::map<std::string, PointRecord> out;
   Hid file(openReadOnly(path), H5Fclose);
@@ -393,6 +433,9 @@ std::map<std::string, PointRecord> pointsHere(const std::string& path) {
     Hid g(H5Gopen2(points, name.c_str(), H5P_DEFAULT), H5Gclose);
     PointRecord rec;
     for (const std::string& a : attributeNames(g)) rec.attrs[a] = readAttribute(g, a, path).text();
+    // The point's name is its attributes (TimingPoint::name): strings kept in the file's global
+    // heap carry no checksum, and a damaged heap entry reads back as "" without an error
+    requireNamedByAttributes(rec, name, path);
     for (const char* ds_name : {"real_time_s", "parent"}) {
       if (H5Lexists(g, ds_name, H5P_DEFAULT) <= 0) continue;
       Hid ds(H5Dopen2(g, ds_name, H5P_DEFAULT), H5Dclose);

@@ -302,6 +302,32 @@ def test_damaged_result_files_raise_and_the_interpreter_survives(tmp_path):
     assert int(run.stdout.split()[-1]) > 5, run.stdout
 
 
+def test_a_damaged_string_heap_is_an_error_not_empty_attributes(tmp_path):
+    """Strings live in the file's global heap, which has no checksum: HDF5 reads a damaged
+    entry back as "" or as other text without an error, and read_points gave every point an
+    empty family, solver and base (a review's file) before it held each point's attributes to
+    its name."""
+    shard = tmp_path / "shard.h5"
+    run = subprocess.run([str(CLI), "time", "--mode", "tiny", "--solvers", "abi", "--min-time",
+                          "0.001", "--repetitions", "1", "--shard", "0/20", "--out", str(shard)],
+                         capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    assert minv.read_points(shard)
+    good = shard.read_bytes()
+    heap = good.find(b"GCOL")
+    assert heap >= 0
+    size = int.from_bytes(good[heap + 8:heap + 16], "little")
+    damaged = tmp_path / "damaged.h5"
+    # One solver string "abi" in the heap made "abj"; then the entry after it unfindable (its
+    # index, 16 bytes into the collection, flipped, as the review's file had it)
+    for offset in (good.find(b"abi", heap, heap + size) + 2, good.find(b"abi", heap) - 16):
+        data = bytearray(good)
+        data[offset] ^= 0x03 if data[offset] == ord("i") else 0xFF
+        damaged.write_bytes(bytes(data))
+        with pytest.raises(RuntimeError, match="is damaged"):
+            minv.read_points(damaged)
+
+
 @pytest.mark.parametrize("limit", [3000, 9000])
 def test_failed_writes_raise_and_the_interpreter_exits_cleanly(tmp_path, limit):
     """A write that a file-size limit (as a full disk) stops raises RuntimeError, leaves no
