@@ -703,6 +703,12 @@ Model loadModel(const std::string& path, bool floating_base) {
   }
 }
 
+std::string floatingUrdfNote(const std::string& path) {
+  return "minv: note: URDF has no floating joint: '" + path +
+         "' holds the tree without its floating base (and the base's placement); read it back "
+         "with --free-root (Python: load_model(path, floating_base=True))";
+}
+
 void saveModel(const Model& m, const std::string& path) {
   // Serialise first, so a model the format cannot express touches no file.
   const std::string ext = extension(path), name = std::filesystem::path(path).stem().string();
@@ -717,6 +723,12 @@ void saveModel(const Model& m, const std::string& path) {
   // Write a temporary file, then rename it over the target.
   requireOutputFile(path);
   const std::string tmp = path + ".tmp";
+  // The tmp file's name is not ours to take: a file or directory there (a user's, or a
+  // SIGKILLed run's) is kept, and named
+  std::error_code ec;
+  if (std::filesystem::exists(std::filesystem::symlink_status(tmp, ec)))
+    throw ModelError("'" + tmp + "' exists: the model is written there first and renamed to '" +
+                     path + "' (remove it, or name another output)");
   {
     std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
     if (!f) throw ModelError("cannot write '" + tmp + "': " + std::strerror(errno));
@@ -727,7 +739,6 @@ void saveModel(const Model& m, const std::string& path) {
       throw ModelError("cannot write '" + tmp + "': " + std::strerror(errno));
     }
   }
-  std::error_code ec;
   std::filesystem::rename(tmp, path, ec);
   if (ec) {
     std::filesystem::remove(tmp);

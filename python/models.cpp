@@ -112,9 +112,13 @@ problem.)doc");
       "save_model",
       [](const Model& model, const std::filesystem::path& path) {
         saveModel(model, path.string());
+        if (model.floatingBase() && path.extension() == ".urdf")
+          py::module_::import("warnings").attr("warn")(floatingUrdfNote(path.string()));
       },
       py::arg("model"), py::arg("path"),
-      "Writes a model file by extension (.json or .urdf), atomically.");
+      "Writes a model file by extension (.json or .urdf), atomically. URDF has no floating "
+      "joint: a floating base is dropped (a warning says so; load_model(path, "
+      "floating_base=True) sets the root free again).");
   // (for minv.compare, which renames its sweep over its output itself)
   m.def(
       "_require_output_file",

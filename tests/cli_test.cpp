@@ -64,6 +64,7 @@ class CliFixture : public testing::Test {
   }
 
   std::string path(const std::string& name) const { return (dir_ / name).string(); }
+  std::string read(const std::string& name) const { return slurp(dir_ / name); }
   void write(const std::string& name, const std::string& text) const {
     std::ofstream(dir_ / name) << text;
   }
@@ -626,6 +627,66 @@ TEST_F(CliBadInput, SpecialFilesAreNeitherReadNorReplaced) {
   }
   EXPECT_TRUE(fs::is_fifo(path("fifo.json")));
   EXPECT_TRUE(fs::is_fifo(path("fifo.h5")));
+}
+
+// An output that would replace one of the run's inputs, or any file that is not HDF5, is an
+// error and the file stays: `solve --out model.json` replaced the model, `merge --out` one of
+// its inputs. The names of the tmp files are not taken from the user either: a file or a
+// directory at OUT.tmp stays (an existing a.h5.tmp was replaced, a t.json.tmp directory removed).
+TEST_F(CliBadInput, OutputsReplaceNeitherInputsNorOtherFiles) {
+  ASSERT_EQ(minv("generate --topology serial --n 3 --out m.json").status, 0);
+  write("q.txt", "j0 0.3\n");
+  const std::string model = read("m.json");
+  expectFailure("solve --model m.json --out m.json", "exists and is not an HDF5 file");
+  expectFailure("solve --model m.json --q q.txt --out q.txt", "exists and is not an HDF5 file");
+  expectFailure("merge --out m.json m.json", "exists and is not an HDF5 file");
+  EXPECT_EQ(read("m.json"), model);
+  EXPECT_EQ(read("q.txt"), "j0 0.3\n");
+  ASSERT_EQ(minv("time --mode tiny --solvers abi --min-time 0.001 --repetitions 1 --shard 0/20 "
+                 "--out shard.h5")
+                .status,
+            0);
+  const std::string shard = read("shard.h5");
+  expectFailure("merge --out shard.h5 shard.h5", "is the input file 'shard.h5'");
+  EXPECT_EQ(read("shard.h5"), shard);
+  // The tmp files' names
+  write("a.h5.tmp", "precious\n");
+  expectFailure("solve --model m.json --out a.h5", "'a.h5.tmp' exists and is not an HDF5 file");
+  EXPECT_EQ(read("a.h5.tmp"), "precious\n");
+  fs::create_directory(path("t.json.tmp"));
+  expectFailure("generate --topology serial --n 3 --out t.json", "'t.json.tmp' exists");
+  EXPECT_TRUE(fs::is_directory(path("t.json.tmp")));
+  write("k.json.tmp", "mine\n");
+  expectFailure("generate --topology serial --n 3 --out k.json", "'k.json.tmp' exists");
+  EXPECT_EQ(read("k.json.tmp"), "mine\n");
+  // An HDF5 file, and an empty one, are replaced
+  ASSERT_EQ(minv("solve --model m.json --out shard.h5").status, 0);
+  write("empty.h5", "");
+  ASSERT_EQ(minv("solve --model m.json --out empty.h5").status, 0);
+}
+
+// With --solver all a solver that fails on the model (LTL cannot factor an M of cond 1e16) is
+// a row "failed: …", a warning and its reason in the file, and the others' results are written
+// (they were lost, and the error named neither the solver nor the model); asked for by name,
+// it is the error, naming both.
+TEST_F(CliBadInput, ASolverThatFailsDoesNotLoseTheOthers) {
+  JsonBody heavy, light, last;
+  heavy.mass = "1e30", heavy.com = "[9999, 0, 0]",
+  heavy.inertia = "[[1e27, 0, 0], [0, 1e27, 0], [0, 0, 1.5e27]]";
+  light.parent = 0, light.mass = "1e-200",
+  light.inertia = "[[1e-203, 0, 0], [0, 1e-203, 0], [0, 0, 1.5e-203]]";
+  last = heavy, last.parent = 1;
+  write("ill.json", jsonModel({heavy, light, last}));
+  const CliRun all = minv("solve --model ill.json --solver all --out ill.h5");
+  ASSERT_EQ(all.status, 0) << all.err;
+  EXPECT_NE(all.out.find("failed: LTL failed"), std::string::npos) << all.out;
+  EXPECT_NE(all.err.find("warning: solver 'ltl'"), std::string::npos) << all.err;
+  H5File f(path("ill.h5"));
+  EXPECT_TRUE(f.has("/solvers/abi/Minv"));
+  EXPECT_FALSE(f.has("/solvers/ltl/Minv"));
+  expectFailure("solve --model ill.json --solver ltl --out one.h5",
+                "solver 'ltl': LTL failed: M is not positive definite (model 'ill.json')");
+  EXPECT_FALSE(fs::exists(path("one.h5")));
 }
 
 // A sweep appends only to its own kind of file: a `solve` result has no experiment attribute,

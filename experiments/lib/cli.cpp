@@ -169,13 +169,15 @@ void checkRange(const std::string& name, long long value, long long lo, long lon
 }
 
 // Fail fast, before any work, if the output file's directory does not exist, or the output
-// names a directory itself (it failed only at the final rename).
-void checkOutputDirectory(const std::string& path) {
+// names a directory itself (it failed only at the final rename), or an HDF5 output would
+// replace a file that is not one (`solve --out model.json` replaced the model).
+void checkOutputDirectory(const std::string& path, bool hdf5 = true) {
   const std::filesystem::path out(path), dir = out.parent_path();
   std::error_code ec;
   if (!out.has_filename())
     throw std::runtime_error("output '" + path + "' is a directory; name a file");
   requireOutputFile(path);
+  if (hdf5) requireReplaceableByHdf5(path);
   if (dir.empty() || std::filesystem::is_directory(dir, ec)) return;
   if (std::filesystem::exists(dir, ec))
     throw std::runtime_error("output directory '" + dir.string() + "' is not a directory");
@@ -215,18 +217,20 @@ std::string topologyOf(const Model& model) {
 // saveModel, and no FILE.tmp left behind whatever it throws (running out of memory while it
 // writes the text, too).
 void saveModelOrRemoveTmp(const Model& model, const std::string& path) {
+  std::error_code ec;
+  // (a tmp file that was there before is not this run's: saveModel refuses it, and it stays)
+  const bool there = std::filesystem::exists(std::filesystem::symlink_status(path + ".tmp", ec));
   try {
     saveModel(model, path);
   } catch (...) {
-    std::error_code ec;
-    std::filesystem::remove(path + ".tmp", ec);
+    if (!there) std::filesystem::remove(path + ".tmp", ec);
     throw;
   }
 }
 
 // generate: parse the names, build the tree, save it atomically, print one line.
 int runGenerate(const GenerateOptions& o) {
-  checkOutputDirectory(o.out);
+  checkOutputDirectory(o.out, /*hdf5=*/false);
   if (o.topology != "serial" && o.topology != "branched" && o.topology != "centipede")
     throw std::invalid_argument("unknown topology '" + o.topology +
                                 "' (expected serial, branched or centipede)");
@@ -252,6 +256,8 @@ int runGenerate(const GenerateOptions& o) {
   t.floating_base = o.floating_base;
   const Model model = randomTree(t);
   saveModelOrRemoveTmp(model, o.out);
+  if (model.floatingBase() && std::filesystem::path(o.out).extension() == ".urdf")
+    std::fprintf(stderr, "%s\n", floatingUrdfNote(o.out).c_str());
   std::printf("bodies=%d nv=%d max_depth=%d file=%s\n", model.nb(), model.nv(), model.maxDepth(),
               o.out.c_str());
   return 0;
@@ -448,7 +454,27 @@ int runSolve(const SolveOptions& o) {
   std::printf("%-*s %-9s %6s  %9s  %9s  %10s%s\n", width, "solver", "topology", "n", "residual",
               "residual_I", "time_ms", o.rhs > 0 ? "  solve_res" : "");
   const bool named = o.solver != "all";
-  for (const SolverEntry* e : solvers) runSolver(*e, model, q, M, o, topology, h5, named, width);
+  for (const SolverEntry* e : solvers) {
+    try {
+      runSolver(*e, model, q, M, o, topology, h5, named, width);
+    } catch (const std::bad_alloc&) {
+      throw;
+    } catch (const std::exception& x) {
+      std::string what = x.what();
+      if (what.rfind("solver '", 0) != 0) what = "solver '" + e->name + "': " + what;
+      // A solver asked for by name: the error, naming the model. With all, the others go on:
+      // its group keeps only why it failed (a peer that cannot factor an M of cond 1e16).
+      if (named) throw std::runtime_error(what + " (model '" + o.model + "')");
+      const std::string group = "solvers/" + e->name;
+      h5.remove(group);
+      h5.createGroup(group);
+      h5.setAttribute(group, "summary", e->summary);
+      h5.setAttribute(group, "failed", x.what());
+      std::printf("%-*s %-9s %6d  failed: %s\n", width, e->name.c_str(), topology.c_str(),
+                  model.nv(), x.what());
+      std::fprintf(stderr, "minv: warning: %s (model '%s')\n", what.c_str(), o.model.c_str());
+    }
+  }
   h5.commit();
   std::printf("wrote %s\n", o.out.c_str());
   return 0;
@@ -530,9 +556,14 @@ struct MergeOptions {
 // merge: join shard files of a sweep into one file.
 int runMerge(const MergeOptions& o) {
   checkOutputDirectory(o.out);
-  for (const std::string& in : o.inputs)
+  std::error_code ec;
+  for (const std::string& in : o.inputs) {
     if (!std::filesystem::exists(in))
       throw std::runtime_error("input file '" + in + "' does not exist");
+    if (std::filesystem::equivalent(in, o.out, ec))
+      throw std::runtime_error("output '" + o.out + "' is the input file '" + in +
+                               "': name another output");
+  }
   const int points = mergeResultFiles(o.inputs, o.out);
   std::printf("merged %d points from %zu files into %s\n", points, o.inputs.size(), o.out.c_str());
   return 0;

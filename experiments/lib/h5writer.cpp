@@ -219,11 +219,33 @@ H5Writer H5Writer::append(const std::string& path) {
   return H5Writer(path, true);
 }
 
+void requireReplaceableByHdf5(const std::string& path, const std::string& role) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::file_status st = fs::status(path, ec);
+  if (!fs::exists(st)) return;
+  if (fs::is_directory(st)) throw std::runtime_error(role + " '" + path + "' is a directory");
+  if (!fs::is_regular_file(st))
+    throw std::runtime_error(role + " '" + path + "' exists and is not a regular file");
+  if (fs::file_size(path, ec) == 0 || ec) return;
+  silenceHdf5Errors();
+  if (H5Fis_hdf5(path.c_str()) > 0) return;
+  H5Eclear2(H5E_DEFAULT);
+  throw std::runtime_error(role + " '" + path +
+                           "' exists and is not an HDF5 file: minv replaces only HDF5 files "
+                           "(remove it, or name another output)");
+}
+
 H5Writer::H5Writer(const std::string& path, bool append)
     : path_(path), file_path_(path + (append ? ".append.tmp" : ".tmp")), append_(append) {
   silenceHdf5Errors();
   if (path.empty()) throw std::runtime_error("HDF5: empty output file name");
   requireOutputFile(path);
+  // Only HDF5 files are replaced, the tmp files' names included (a user's a.h5.tmp is kept)
+  if (!append) requireReplaceableByHdf5(path);
+  const std::string of = "the tmp file of '" + path + "',";
+  requireReplaceableByHdf5(file_path_, of);
+  if (append) requireReplaceableByHdf5(path + ".publish.tmp", of);
   std::error_code ec;
   if (!append) {
     // Create mode: the tmp file, known to the signal handler before it exists

@@ -33,6 +33,9 @@
 //     a crash. A symbolic link `path` publishes to its target. Each point writes the file once
 //     (1270 points of the quick timing sweep, up to 7 MB: a few seconds in all), and power loss
 //     is not covered (no fsync).
+//   * The writer replaces only HDF5 files, at `path` and at its tmp files: an existing other
+//     file there (a model given as the output by mistake) is an error before anything is
+//     written (requireReplaceableByHdf5).
 //   * Object paths are "/"-separated and relative to the root ("a/b" = "/a/b"); writing a
 //     dataset creates the missing groups on its path.
 //   * Format: HDF5 1.8 objects (superblock 2), whose metadata carry checksums (HDF5 and h5py
@@ -68,6 +71,11 @@ void forgetInheritedTmpFiles();
 // create-mode file, or append mode's working copy (`append`), which HDF5 keeps in memory. The
 // child's trial write (isolate.hpp) opens its copy with the same.
 hid_t writerFileAccess(bool append);
+
+// An existing `path` that an HDF5 output (or a writer's tmp file) would replace must be an HDF5
+// file or empty: a model, a configuration or a user's file named like one is not replaced
+// (runtime_error naming it and `role`: "output", "the tmp file of output 'x.h5'", …).
+void requireReplaceableByHdf5(const std::string& path, const std::string& role = "output");
 
 // An HDF5 identifier closed by its own close function when it goes out of scope (the writer's,
 // the reader's and the child's reads in isolate.cpp).

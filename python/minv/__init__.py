@@ -248,9 +248,10 @@ def compare(solver, sizes=(8, 16, 32, 64), topologies=("serial", "branched"),
     The result file ``out`` (its folder is created) is the harness's timing format, with
     provenance and the attributes compare_solver, compare_against, python_version and
     numpy_version at its root: readable by ``read_points``, by ``minv time``'s tools and by
-    plots/ (``plots/compare.py FILE`` draws it). Unless ``resume`` is true an existing ``out``
-    is replaced (only once the new sweep has finished); with ``resume=True`` the points
-    already in it are kept and not measured again. ``verbose`` prints one line per point.
+    plots/ (``plots/compare.py FILE`` draws it). Unless ``resume`` is true an existing ``out``,
+    which must be a timing sweep (another file there is an error), is replaced (only once the
+    new sweep has finished); with ``resume=True`` the points already in it are kept and not
+    measured again. ``verbose`` prints one line per point.
 
     Returns a :class:`Comparison` (``times[solver][topology][n]``: median seconds).
     """
@@ -277,6 +278,14 @@ def compare(solver, sizes=(8, 16, 32, 64), topologies=("serial", "branched"),
         raise IsADirectoryError(f"out must name a file, and {path!r} is a directory")
     # (the sweep's file is renamed over out: a FIFO or a device such as /dev/null would go)
     _minv._require_output_file(path)
+    # What replacing may destroy: only an earlier timing sweep (a solve result, a model or
+    # another file named by mistake stays, as the command line's sweeps keep them)
+    if not resume and os.path.lexists(path):
+        try:
+            read_points(path)
+        except (RuntimeError, ValueError) as e:
+            raise ValueError(f"out {path!r} exists and is not a timing sweep, the only file "
+                             f"compare replaces: remove it or name another out ({e})") from None
     # The folders this call creates (deepest first), removed again if still empty when it fails;
     # the nearest existing one must be a folder.
     folder = os.path.dirname(os.path.abspath(path))

@@ -55,6 +55,17 @@ def test_model_files_round_trip(tmp_path, ext):
         assert minv.load_model(path, floating_base=True).nv == model.nv + 5
 
 
+def test_a_floating_base_saved_as_urdf_is_dropped_with_a_warning(tmp_path):
+    """URDF has no floating joint: the saved file reads back fixed unless asked, and the caller
+    is told so (it was dropped silently)."""
+    model = minv.random_tree("branched", 6, seed=5, floating_base=True)
+    path = tmp_path / "tree.urdf"
+    with pytest.warns(UserWarning, match="has no floating joint"):
+        minv.save_model(model, path)
+    assert minv.load_model(path).nv == model.nv - 6
+    assert minv.load_model(path, floating_base=True).nv == model.nv
+
+
 def test_read_configuration(tmp_path):
     model = minv.random_tree("serial", 4)
     q = minv.random_configuration(model, 9)

@@ -9,7 +9,7 @@ import pytest
 import scipy.linalg
 
 import minv
-from conftest import ScipyCholesky
+from conftest import ScipyCholesky, cli_path
 
 
 class Perturbed(ScipyCholesky):
@@ -231,6 +231,30 @@ def test_compare_resume_keeps_points(tmp_path):
     with pytest.raises(ValueError, match=r"made with min_time_s '0.001' \(this run: '0.002'\)"):
         minv.compare(ScipyCholesky, sizes=(6, 8), resume=True, **kw)
     assert len(minv.read_points(out)) == 2
+
+
+def test_compare_replaces_only_a_timing_sweep(tmp_path):
+    """Without resume an existing out is replaced: only if it is a timing sweep (a solve result
+    and a model file were replaced)."""
+    kw = dict(sizes=(4,), topologies=("serial",), against=("abi",), repetitions=1,
+              min_time=0.001)
+    model = tmp_path / "m.json"
+    minv.save_model(minv.random_tree("serial", 3), model)
+    text = model.read_bytes()
+    with pytest.raises(ValueError, match="exists and is not a timing sweep"):
+        minv.compare(ScipyCholesky, out=model, **kw)
+    assert model.read_bytes() == text
+    solved = tmp_path / "solved.h5"
+    run = subprocess.run([str(cli_path()), "solve", "--model", str(model), "--solver", "abi",
+                          "--out", str(solved)], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    result = solved.read_bytes()
+    with pytest.raises(ValueError, match="exists and is not a timing sweep"):
+        minv.compare(ScipyCholesky, out=solved, **kw)
+    assert solved.read_bytes() == result
+    out = tmp_path / "r.h5"
+    minv.compare(ScipyCholesky, out=out, **kw)
+    minv.compare(ScipyCholesky, out=out, **kw)
 
 
 def test_compare_file_suits_plots(tmp_path, source_dir):
