@@ -703,7 +703,8 @@ Model loadModel(const std::string& path, bool floating_base) {
   }
 }
 
-std::string floatingUrdfNote(const std::string& path) {
+std::string floatingUrdfNote(const Model& model, const std::string& path) {
+  if (!model.floatingBase() || extension(path) != ".urdf") return {};
   return "minv: note: URDF has no floating joint: '" + path +
          "' holds the tree without its floating base (and the base's placement); read it back "
          "with --free-root (Python: load_model(path, floating_base=True))";

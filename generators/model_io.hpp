@@ -71,8 +71,9 @@ Model readUrdf(const std::string& xml, const std::string& source_name, bool floa
 // floating_base = true). Needs unique non-empty body and joint names; ModelError for a
 // spherical joint, a floating model with more than one root, or bad names.
 void writeUrdf(const Model& model, std::ostream& out, const std::string& robot_name);
-// What to tell the one who saved a floating-base model as URDF at `path` (it reads back fixed).
-std::string floatingUrdfNote(const std::string& path);
+// What to tell the one who saved `model` at `path`, if it has a floating base and `path` is
+// URDF (it reads back fixed); else "".
+std::string floatingUrdfNote(const Model& model, const std::string& path);
 
 // The files the harness reads and writes, checked before they are opened (ModelError naming the
 // path). An input must be a regular file after symbolic links: a FIFO would block the read and

@@ -21,8 +21,12 @@ def main():
     parser.add_argument("file", help="timing result file (HDF5)")
     parser.add_argument("--out", help="output image (any matplotlib format)")
     args = parser.parse_args()
-    root, points = load_timing(os.path.abspath(args.file))
-    pipeline = [p for p in points if p["family"] == "pipeline"]
+    try:
+        root, points = load_timing(os.path.abspath(args.file))
+        pipeline = [p for p in points if p["family"] == "pipeline"]
+    except (OSError, KeyError) as e:
+        raise SystemExit(f"plots: {args.file} is not a timing file (of minv time or "
+                         f"minv.compare): {e}") from None
     if not pipeline:
         raise SystemExit(f"plots: {args.file} has no pipeline points")
     topologies = sorted({p["topology"] for p in pipeline})

@@ -142,6 +142,9 @@ def main():
     claims = []
     if have_timing:
         troot, points = load_timing()
+        # What one point timed: its repetitions of at least Google Benchmark's minimum time
+        timed_per_point = (f"{troot.get('repetitions', '?')} repetitions of at least "
+                           f"{troot.get('min_time_s', '?')} s of timed runs")
         x, note = crossover(points, "abi", "lapack", "serial", "fixed")
         cross = f"n ≈ {x:.0f} ({note})" if x else note
         claims.append(("Cholesky (CRBA + LAPACK) wins below n ≈ 130, the Θ(n²) method above "
@@ -226,9 +229,8 @@ def main():
             "Θ(n·depth), the O(n³) of LAPACK runs at BLAS-3 speed); a slope above it means each "
             "operation gets slower as n grows, as it does when an unblocked code's working set "
             "outgrows the caches (the exponents table below has both). The thread rows come "
-            "from one pass of the sweep (each point a few hundredths of a second of timed runs: "
-            "Google Benchmark's minimum time per repetition, 5 repetitions), on a machine "
-            "shared with other tenants: a one-thread point that ran slow inflates them, so the two-thread "
+            f"from one pass of the sweep (each point {timed_per_point}), on a machine shared "
+            "with other tenants: a one-thread point that ran slow inflates them, so the two-thread "
             "row of abi also gives `bench_abi`'s figure (results/perf.h5, paper/PERFORMANCE.md: "
             "its own one- and two-thread runs, side by side).", ""]
 

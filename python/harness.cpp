@@ -340,6 +340,7 @@ of the C++ suite.)doc")
         py::arg("log"));
   m.def("_annotate", &annotate, py::arg("path"), py::arg("attributes"));
   m.def("_read_points", &readPointsPy, py::arg("path"));
+  m.def("_require_replaceable_hdf5", &requireReplaceableByHdf5, py::arg("path"), py::arg("role"));
   m.def("_solver_name_problem", &solverNameProblem, py::arg("name"));
 }
 

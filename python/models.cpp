@@ -112,8 +112,8 @@ problem.)doc");
       "save_model",
       [](const Model& model, const std::filesystem::path& path) {
         saveModel(model, path.string());
-        if (model.floatingBase() && path.extension() == ".urdf")
-          py::module_::import("warnings").attr("warn")(floatingUrdfNote(path.string()));
+        if (const std::string note = floatingUrdfNote(model, path.string()); !note.empty())
+          py::module_::import("warnings").attr("warn")(note);
       },
       py::arg("model"), py::arg("path"),
       "Writes a model file by extension (.json or .urdf), atomically. URDF has no floating "

@@ -381,6 +381,8 @@ void runCentipedeSweep(const CentipedeSweepOptions& o, std::ostream& log) {
   for (const std::string& s : o.solvers) {
     if (std::find(known.begin(), known.end(), s) == known.end())
       throw std::invalid_argument("unknown solver '" + s + "'");
+    if (std::count(o.solvers.begin(), o.solvers.end(), s) > 1)
+      throw std::invalid_argument("--solvers names '" + s + "' twice (each path walks once)");
     if (s == kMujocoStepPath && !haveMujocoStep())
       throw std::invalid_argument("path mujoco-step needs MuJoCo, and this build has none");
     checkPathThreads(s, o.threads);  // before any point: a refused path is not a skipped point

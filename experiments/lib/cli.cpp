@@ -172,6 +172,7 @@ void checkRange(const std::string& name, long long value, long long lo, long lon
 // names a directory itself (it failed only at the final rename), or an HDF5 output would
 // replace a file that is not one (`solve --out model.json` replaced the model).
 void checkOutputDirectory(const std::string& path, bool hdf5 = true) {
+  if (path.empty()) throw std::invalid_argument("--out names no file");
   const std::filesystem::path out(path), dir = out.parent_path();
   std::error_code ec;
   if (!out.has_filename())
@@ -219,13 +220,20 @@ std::string topologyOf(const Model& model) {
 void saveModelOrRemoveTmp(const Model& model, const std::string& path) {
   std::error_code ec;
   // (a tmp file that was there before is not this run's: saveModel refuses it, and it stays)
-  const bool there = std::filesystem::exists(std::filesystem::symlink_status(path + ".tmp", ec));
+  const std::string tmp = path + ".tmp";
+  if (std::filesystem::exists(std::filesystem::symlink_status(tmp, ec)))
+    return saveModel(model, path);
+  // This run's: removed on a failure, and on a signal (SIGINT, a file-size limit …) as the
+  // writers' tmp files are; only a SIGKILLed run leaves it, and the next one names it
+  const RemovedOnSignal guard(tmp);
   try {
     saveModel(model, path);
   } catch (...) {
-    if (!there) std::filesystem::remove(path + ".tmp", ec);
+    std::filesystem::remove(tmp, ec);
     throw;
   }
+  if (const std::string note = floatingUrdfNote(model, path); !note.empty())
+    std::fprintf(stderr, "%s\n", note.c_str());
 }
 
 // generate: parse the names, build the tree, save it atomically, print one line.
@@ -256,8 +264,6 @@ int runGenerate(const GenerateOptions& o) {
   t.floating_base = o.floating_base;
   const Model model = randomTree(t);
   saveModelOrRemoveTmp(model, o.out);
-  if (model.floatingBase() && std::filesystem::path(o.out).extension() == ".urdf")
-    std::fprintf(stderr, "%s\n", floatingUrdfNote(o.out).c_str());
   std::printf("bodies=%d nv=%d max_depth=%d file=%s\n", model.nb(), model.nv(), model.maxDepth(),
               o.out.c_str());
   return 0;
@@ -454,6 +460,7 @@ int runSolve(const SolveOptions& o) {
   std::printf("%-*s %-9s %6s  %9s  %9s  %10s%s\n", width, "solver", "topology", "n", "residual",
               "residual_I", "time_ms", o.rhs > 0 ? "  solve_res" : "");
   const bool named = o.solver != "all";
+  std::string failed;  // the solvers that failed, with all
   for (const SolverEntry* e : solvers) {
     try {
       runSolver(*e, model, q, M, o, topology, h5, named, width);
@@ -461,10 +468,14 @@ int runSolve(const SolveOptions& o) {
       throw;
     } catch (const std::exception& x) {
       std::string what = x.what();
+      // (the result file's own failures are not the solver's)
+      if (what.rfind("HDF5: ", 0) == 0) throw;
       if (what.rfind("solver '", 0) != 0) what = "solver '" + e->name + "': " + what;
       // A solver asked for by name: the error, naming the model. With all, the others go on:
-      // its group keeps only why it failed (a peer that cannot factor an M of cond 1e16).
+      // its group keeps only why it failed (a peer that cannot factor an M of cond 1e16), and
+      // the command fails at the end, after writing the file.
       if (named) throw std::runtime_error(what + " (model '" + o.model + "')");
+      failed += (failed.empty() ? "" : ", ") + e->name;
       const std::string group = "solvers/" + e->name;
       h5.remove(group);
       h5.createGroup(group);
@@ -477,6 +488,10 @@ int runSolve(const SolveOptions& o) {
   }
   h5.commit();
   std::printf("wrote %s\n", o.out.c_str());
+  if (!failed.empty())
+    throw std::runtime_error("solver(s) " + failed + " failed on '" + o.model +
+                             "' (their rows above say why; " + o.out +
+                             " holds every other result)");
   return 0;
 }
 
@@ -564,6 +579,8 @@ int runMerge(const MergeOptions& o) {
       throw std::runtime_error("output '" + o.out + "' is the input file '" + in +
                                "': name another output");
   }
+  // (merge writes in a child process, whose crash on a damaged input removes OUT.tmp)
+  requireReplaceableByHdf5(o.out + ".tmp", "the tmp file of '" + o.out + "',");
   const int points = mergeResultFiles(o.inputs, o.out);
   std::printf("merged %d points from %zu files into %s\n", points, o.inputs.size(), o.out.c_str());
   return 0;
@@ -578,6 +595,8 @@ struct SimulateOptions {
 // simulate centipede: one walk, progress on stdout, the net displacement, optionally HDF5.
 int runSimulate(SimulateOptions o) {
   if (!o.out.empty()) checkOutputDirectory(o.out);
+  if (o.run.frames > 0 && o.out.empty())
+    throw std::invalid_argument("--frames keeps trajectory frames in the output file: give --out");
   // (The walk's other options are checked by sim::runCentipede before it steps.)
   checkRange("--segments", o.run.segments, 1, kMaxSegments);
   allocating() = "a walk of a centipede of " + std::to_string(o.run.segments) + " segments, " +

@@ -219,6 +219,15 @@ H5Writer H5Writer::append(const std::string& path) {
   return H5Writer(path, true);
 }
 
+RemovedOnSignal::RemovedOnSignal(const std::string& path) {
+  std::error_code ec;
+  slot_ = registerTmp(std::filesystem::absolute(path, ec).string());
+}
+
+RemovedOnSignal::~RemovedOnSignal() {
+  unregisterTmp(slot_);
+}
+
 void requireReplaceableByHdf5(const std::string& path, const std::string& role) {
   namespace fs = std::filesystem;
   std::error_code ec;
@@ -229,8 +238,13 @@ void requireReplaceableByHdf5(const std::string& path, const std::string& role) 
     throw std::runtime_error(role + " '" + path + "' exists and is not a regular file");
   if (fs::file_size(path, ec) == 0 || ec) return;
   silenceHdf5Errors();
-  if (H5Fis_hdf5(path.c_str()) > 0) return;
+  const htri_t hdf5 = H5Fis_hdf5(path.c_str());
+  if (hdf5 > 0) return;
   H5Eclear2(H5E_DEFAULT);
+  if (hdf5 < 0)
+    throw std::runtime_error(role + " '" + path +
+                             "' exists and cannot be read, so minv cannot tell that it is an "
+                             "HDF5 file it may replace (remove it, or name another output)");
   throw std::runtime_error(role + " '" + path +
                            "' exists and is not an HDF5 file: minv replaces only HDF5 files "
                            "(remove it, or name another output)");
@@ -242,12 +256,11 @@ H5Writer::H5Writer(const std::string& path, bool append)
   if (path.empty()) throw std::runtime_error("HDF5: empty output file name");
   requireOutputFile(path);
   // Only HDF5 files are replaced, the tmp files' names included (a user's a.h5.tmp is kept)
-  if (!append) requireReplaceableByHdf5(path);
   const std::string of = "the tmp file of '" + path + "',";
-  requireReplaceableByHdf5(file_path_, of);
-  if (append) requireReplaceableByHdf5(path + ".publish.tmp", of);
   std::error_code ec;
   if (!append) {
+    requireReplaceableByHdf5(path);
+    requireReplaceableByHdf5(file_path_, of);
     // Create mode: the tmp file, known to the signal handler before it exists
     tmp_slot_ = registerTmp(std::filesystem::absolute(file_path_, ec).string());
     try {
@@ -265,6 +278,9 @@ H5Writer::H5Writer(const std::string& path, bool append)
     file_path_ = path_ + ".append.tmp";
   }
   publish_path_ = path_ + ".publish.tmp";
+  // (the names beside the link's target, which are the ones used)
+  requireReplaceableByHdf5(file_path_, of);
+  requireReplaceableByHdf5(publish_path_, of);
   lockWorkingCopy();
   try {
     // The tmp files known to the signal handler, a killed run's publication copy removed

@@ -77,6 +77,19 @@ hid_t writerFileAccess(bool append);
 // (runtime_error naming it and `role`: "output", "the tmp file of output 'x.h5'", …).
 void requireReplaceableByHdf5(const std::string& path, const std::string& role = "output");
 
+// A file that this process is writing, removed by the signal handler of the writers' tmp files
+// (SIGINT, SIGTERM, SIGHUP, SIGABRT, SIGPIPE, SIGXFSZ) while the guard lives: a model's tmp file.
+class RemovedOnSignal {
+ public:
+  explicit RemovedOnSignal(const std::string& path);
+  ~RemovedOnSignal();
+  RemovedOnSignal(const RemovedOnSignal&) = delete;
+  RemovedOnSignal& operator=(const RemovedOnSignal&) = delete;
+
+ private:
+  int slot_ = -1;
+};
+
 // An HDF5 identifier closed by its own close function when it goes out of scope (the writer's,
 // the reader's and the child's reads in isolate.cpp).
 class Hid {

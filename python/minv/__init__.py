@@ -280,7 +280,7 @@ def compare(solver, sizes=(8, 16, 32, 64), topologies=("serial", "branched"),
     _minv._require_output_file(path)
     # What replacing may destroy: only an earlier timing sweep (a solve result, a model or
     # another file named by mistake stays, as the command line's sweeps keep them)
-    if not resume and os.path.lexists(path):
+    if not resume and os.path.exists(path):
         try:
             read_points(path)
         except (RuntimeError, ValueError) as e:
@@ -298,6 +298,8 @@ def compare(solver, sizes=(8, 16, 32, 64), topologies=("serial", "branched"),
     os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
     work = path if resume else path + ".compare-tmp"
     if work != path and os.path.exists(work):
+        # (an earlier compare's, killed: an HDF5 file; a user's other file there stays)
+        _minv._require_replaceable_hdf5(work, f"the tmp file of {path!r},")
         os.remove(work)
     log = (lambda line: print(line, end="", flush=True)) if verbose else None
     try:

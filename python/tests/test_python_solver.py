@@ -255,6 +255,12 @@ def test_compare_replaces_only_a_timing_sweep(tmp_path):
     out = tmp_path / "r.h5"
     minv.compare(ScipyCholesky, out=out, **kw)
     minv.compare(ScipyCholesky, out=out, **kw)
+    # Nor is a user's file at the name of compare's tmp file replaced
+    mine = tmp_path / "r.h5.compare-tmp"
+    mine.write_text("mine\n")
+    with pytest.raises(RuntimeError, match="exists and is not an HDF5 file"):
+        minv.compare(ScipyCholesky, out=out, **kw)
+    assert mine.read_text() == "mine\n"
 
 
 def test_compare_file_suits_plots(tmp_path, source_dir):
