@@ -229,10 +229,11 @@ MINV_NOINLINE int articulatedLinks(const Model& model, const Kinematics<T>& kin,
     const C S = C::loadFar(s);
     const C BS =
         (B[0] * s[0] + B[2] * s[2] + B[4] * s[4]) + (B[1] * s[1] + B[3] * s[3] + B[5] * s[5]);
-    const T q = dot(S, U);
-    const T dj = T(1) / (dot(S, BS) - q * (q * dinv));
-    // The coupling c_{j+1} = −S_jᵀ U_{j+1} D_{j+1}⁻¹
-    art.couple(v) = -(q * dinv);
+    const T q = dot(S, U), qd = q * dinv;
+    const T dj = T(1) / (dot(S, BS) - q * qd);
+    // The coupling c_{j+1} = −S_jᵀ U_{j+1} D_{j+1}⁻¹ (q D⁻¹ formed once, as the compiler forms it
+    // on doubles, so that the counting scalar counts what runs)
+    art.couple(v) = -qd;
     // IA_j = B − U_{j+1} D_{j+1}⁻¹ U_{j+1}ᵀ
     for (int c = 0; c < 6; ++c) {
       IA[c] = B[c] - UD * U[c];
@@ -276,7 +277,7 @@ inline bool linkRun(const Model& model, int i) {
 // pass 2: IA_λ(i) = I_λ(i) + Σ Ia_i over its children, Ia_i = IA_i − U_i D_i⁻¹ U_iᵀ). Along a
 // chain (the parent is the next body done) Ia_i goes on in registers (`carry`), not through
 // memory; a branch point's other children add theirs into its IA, which starts as I_λ. A run of
-// at least kRun one-DOF links goes up in articulatedLinks, regrouped (9 multiplications and 7
+// at least kRun one-DOF links goes up in articulatedLinks, regrouped (8 multiplications and 7
 // additions more per link). The same operations on every scalar (Tables 1–3 count them).
 template <class T>
 void articulatedInertias(const Model& model, const Kinematics<T>& kin, Articulated<T>& art) {

@@ -244,7 +244,7 @@ Mat6<T> crossF(const Vec6<T>& v) {
 // Spatial inertia of a body of mass m, centre of mass c and rotational inertia Ī_c about c,
 // expressed about the origin of the frame c is given in (RBDA eq. 2.63). With h = m c and
 // c̃ c̃ᵀ = |c|² 1 − c cᵀ: the top-left block is Ī_c + (hᵀc) 1 − h cᵀ (symmetric: 6 products),
-// the off-diagonal blocks are h̃ and h̃ᵀ. 12 mul, 12 add; reads Ī_c's lower triangle only.
+// the off-diagonal blocks are h̃ and h̃ᵀ. 12 mul, 11 add; reads Ī_c's lower triangle only.
 template <class T>
 MINV_INLINE void mcI(const T& m, const T* c, const T* Ic, T* I) {
   // On plain arrays, column-major (Eigen's order): c 3, Ī_c 3×3, I 6×6.

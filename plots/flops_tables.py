@@ -77,7 +77,8 @@ def main():
             table(g["abi"], TABLE1, "Table 1: the Θ(n²) inverse (`abi`)"),
             table(g["naive"], TABLE2, "Table 2: CRBA + naive Cholesky (`naive`)"),
             table(g["lapack"], TABLE2, "Table 2 with LAPACK (`lapack`, factor and inverse as "
-                  "documented in LAWN 41)"),
+                  "documented in LAWN 41, which books its 2n reciprocals as multiplications: no "
+                  "divisions)"),
             table(g["ltdl"], TABLE2, "Table 2 with Featherstone's LᵀDL (`ltdl`)"),
             table(g["abi_parallel"], TABLE3,
                   "Table 3: the Θ(n²) inverse per processor, one processor per column"),

@@ -22,10 +22,11 @@ std::vector<StageCount> LapackSolver::countStages(const Model& model, const Eige
   MatX<Counted> H(model.nv(), model.nv());
   countCrbaFront(model, q, H, mark);
   std::vector<StageCount> out = stageCounts(mark);
-  // LAWN 41: POTRF n³/6 + n²/2 + n/3 mults, n³/6 − n/6 adds; POTRI n³/3 + n² + 2n/3 mults,
-  // n³/3 − n²/2 + n/6 adds; POTRS m·n(n+1) mults, m·n(n−1) adds.
+  // LAWN 41: POTRF n³/6 + n²/2 + n/3 mults, n³/6 − n/6 adds and n square roots; POTRI
+  // n³/3 + n² + 2n/3 mults, n³/3 − n²/2 + n/6 adds; POTRS m·n(n+1) mults, m·n(n−1) adds. LAWN 41
+  // books each reciprocal (n in POTRF, n in POTRI's TRTRI) as a multiplication: no divisions.
   const std::uint64_t n = model.nv();
-  FlopCounts potrf{(n * n * n + 3 * n * n + 2 * n) / 6, (n * n * n - n) / 6, 0, 0, 0, 0};
+  FlopCounts potrf{(n * n * n + 3 * n * n + 2 * n) / 6, (n * n * n - n) / 6, 0, n, 0, 0};
   out.push_back({"factorization", potrf, true});
   if (m == 0) {
     FlopCounts potri{
