@@ -8,7 +8,6 @@
 // regroups its sweeps). Cost Θ(nb); no allocation.
 #pragma once
 
-#include <cmath>
 #include <type_traits>
 #include <vector>
 
@@ -68,12 +67,13 @@ using MatJ = Eigen::Matrix<T, K, K, 0, K == Eigen::Dynamic ? 6 : K, K == Eigen::
 // triangular, without square roots (the same elimination as Cholesky, as stable on SPD
 // matrices): L below the diagonal and r_j = 1 / Δ_jj. N: k at compile time, or 6 with k given
 // at run time (Eigen::Dynamic). One division per column on the chain from one column to the
-// next, where Cholesky has a square root and a division.
+// next, where Cholesky has a square root and a division; the 3×3 adjugate and pivots from
+// leading minors were far less accurate (paper/ENGINEERING.md, "Small SPD inverses").
 template <class T, int K>
 struct SpdFactor {
   static constexpr int N = K == Eigen::Dynamic ? 6 : K;
   int k = N;
-  T L[N][N] = {}, r[N] = {};
+  T L[N][N], r[N];  // (below the diagonal and r[0 … k−1] written before read: not zeroed)
 
   template <class In>
   explicit SpdFactor(const In& D, int size = N) : k(K == Eigen::Dynamic ? size : K) {
@@ -131,19 +131,6 @@ struct SpdFactor {
     }
   }
 };
-
-// Inverse of a small symmetric positive-definite k×k matrix (k ≤ 6) by SpdFactor; Dinv is k×k
-// on entry. K: k at compile time (or Eigen::Dynamic). The 3×3 adjugate and pivots from leading
-// minors were far less accurate (paper/ENGINEERING.md, "Small SPD inverses").
-template <class T, int K = Eigen::Dynamic, class In, class Out>
-void spdInverse(const In& D, Out&& Dinv) {
-  const int k = K == Eigen::Dynamic ? static_cast<int>(D.rows()) : K;
-  if (k == 1) {
-    Dinv(0, 0) = T(1) / D(0, 0);
-    return;
-  }
-  SpdFactor<T, K>(D, k).inverse(Dinv);
-}
 
 // One body of k DOFs (K: k at compile time, or Eigen::Dynamic) at v, IA_i in columns:
 //   U_i = IA_i S_i,  D_i = S_iᵀ U_i,  D_i⁻¹,  U_i D_i⁻¹,

@@ -220,6 +220,13 @@ void annotate(const std::string& path, const std::map<std::string, std::string>&
   h5.commit();
 }
 
+// (H5Fis_hdf5 enters HDF5: without the GIL, as annotate)
+void requireReplaceableHdf5(const std::string& path, const std::string& role) {
+  py::gil_scoped_release release;
+  const ForksWait forks_wait;
+  requireReplaceableByHdf5(path, role);
+}
+
 py::dict readPointsPy(const std::string& path) {
   // Without the GIL (as annotate); the child that reads the file first is forked while this
   // thread holds HDF5's lock (isolate.hpp)
@@ -340,7 +347,7 @@ of the C++ suite.)doc")
         py::arg("log"));
   m.def("_annotate", &annotate, py::arg("path"), py::arg("attributes"));
   m.def("_read_points", &readPointsPy, py::arg("path"));
-  m.def("_require_replaceable_hdf5", &requireReplaceableByHdf5, py::arg("path"), py::arg("role"));
+  m.def("_require_replaceable_hdf5", &requireReplaceableHdf5, py::arg("path"), py::arg("role"));
   m.def("_solver_name_problem", &solverNameProblem, py::arg("name"));
 }
 

@@ -517,7 +517,7 @@ TEST(ImpulseSweeps, AbiFlushesSubnormalsAndRestoresTheMode) {
   }
 }
 
-// The joint blocks' inverse D⁻¹ (spdInverse: every size above 1 by L Δ Lᵀ, SpdFactor)
+// The joint blocks' inverse D⁻¹ (SpdFactor: every size above 1 by L Δ Lᵀ)
 // on SPD matrices with condition numbers up to 1e12, against Eigen's LDLᵀ solve in long double:
 // relative error ≤ 50·κ·ε (backward stable; an adjugate formula's error grows as κ²). Each size
 // as the articulated pass compiles it (3 and 6 fixed) and at run time (Eigen::Dynamic).
@@ -538,9 +538,9 @@ TEST(ImpulseSweeps, SmallSpdInverseIsStable) {
       using MatL = Eigen::Matrix<long double, Eigen::Dynamic, Eigen::Dynamic>;
       const MatL ref = D.cast<long double>().ldlt().solve(MatL::Identity(k, k));
       Eigen::MatrixXd fixed(k, k), dynamic(k, k);
-      if (k == 3) spdInverse<double, 3>(D, fixed);
-      if (k == 6) spdInverse<double, 6>(D, fixed);
-      spdInverse<double>(D, dynamic);
+      if (k == 3) SpdFactor<double, 3>(D).inverse(fixed);
+      if (k == 6) SpdFactor<double, 6>(D).inverse(fixed);
+      SpdFactor<double, Eigen::Dynamic>(D, k).inverse(dynamic);
       for (const Eigen::MatrixXd* Dinv : {&fixed, &dynamic}) {
         if (k == 2 && Dinv == &fixed) continue;
         const double err =
