@@ -1,11 +1,11 @@
 """Accuracy vs n (a figure the paper does not have): for every solver on serial (solid) and
 branched (dashed) trees, fixed base: relative residual ‖MX − I‖_F/(‖M‖_F‖X‖_F), the forward
-error ‖X − X_ref‖_F/‖X_ref‖_F against a long-double reference, and cond₂(M).
-Reads results/accuracy.h5."""
+error ‖X − X_ref‖_F/‖X_ref‖_F against a long-double reference (the impulse sweeps in long
+double; dotted: the estimate of its own error), and cond₂(M). Reads results/accuracy.h5."""
 import matplotlib.pyplot as plt
 import numpy as np
 
-from analysis import STYLE, load_accuracy
+from analysis import STYLE, accuracy_problems, load_accuracy
 from common import save
 
 EPS = np.finfo(float).eps
@@ -33,6 +33,14 @@ def main():
         axes[2].plot(n, [rows[k] for k in n], ls, color="k", marker="o", ms=3, label=f"cond₂(M), {topo}")
         axes[1].plot(n, [EPS * rows[k] for k in n], ls, color="k", lw=0.8, alpha=0.6,
                      label=f"ε·cond₂(M), {topo}")
+        # The reference's own error (an estimate); files before 2026-12-07 lack it.
+        est = {int(g["n"]): g["reference_error_estimate"] for g in accuracy_problems()
+               if g["topology"] == topo and "reference_error_estimate" in g}
+        if est:
+            ne = sorted(est)
+            axes[1].plot(ne, [est[k] for k in ne], ":" if topo == "serial" else "-.", color="grey",
+                         lw=1.0,
+                         label=f"X_ref's own error (est.), {topo}")
     titles = ("relative residual ‖MX − I‖/(‖M‖‖X‖)", "error vs long-double reference", "cond₂(M)")
     for ax, t in zip(axes, titles):
         ax.set_xscale("log")

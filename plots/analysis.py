@@ -127,3 +127,15 @@ def speedups(points, solver, threads):
 
 def load_accuracy(name="accuracy.h5"):
     return load_points(name)
+
+
+def accuracy_problems(name="accuracy.h5"):
+    """The attributes of each tree of an accuracy sweep (cond₂(M), the reference's own error
+    estimate and its difference from the Cholesky check), with 'name'."""
+    out = []
+    with h5py.File(result_path(name), "r") as f:
+        for pname, g in f["problems"].items():
+            rec = {k: text(v) for k, v in g.attrs.items()}
+            rec["name"] = pname
+            out.append(rec)
+    return out

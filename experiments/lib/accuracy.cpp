@@ -11,7 +11,9 @@
 #include <optional>
 #include <stdexcept>
 
+#include "core/articulated.hpp"
 #include "core/crba.hpp"
+#include "core/impulse_sweeps.hpp"
 #include "core/kinematics.hpp"
 #include "experiments/lib/budget.hpp"
 #include "experiments/lib/h5reader.hpp"
@@ -39,8 +41,6 @@ AccuracySweep accuracySweep(const std::string& mode) {
 
 namespace {
 
-using LMat = MatX<long double>;
-
 // λ_max of a symmetric positive (semi)definite matrix by power iteration.
 template <class Mat>
 double lambdaMax(const Mat& A, int iterations = 300) {
@@ -57,44 +57,77 @@ double lambdaMax(const Mat& A, int iterations = 300) {
   return static_cast<double>(lambda);
 }
 
-struct Reference {
-  Eigen::MatrixXd M;  // double CRBA (what the solvers see)
-  LMat Xref;          // long-double M⁻¹
-  double cond = 0;
-};
-
-Reference reference(const Model& model, const Eigen::VectorXd& q) {
-  Reference r;
-  r.M = massMatrix(model, q);
-  Kinematics<long double> kin(model, Origin::EachRoot);
-  const VecX<long double> ql = q.cast<long double>();
-  computeKinematics<long double>(model, ql, kin);
-  std::vector<Mat6<long double>> Ic(model.nb());
-  LMat Ml(model.nv(), model.nv());
-  crba<long double>(model, kin, Ic, Ml);
-  Eigen::LLT<LMat> llt(Ml);
-  if (llt.info() != Eigen::Success) throw std::runtime_error("long-double Cholesky failed");
-  r.Xref = llt.solve(LMat::Identity(model.nv(), model.nv()));
-  const Eigen::MatrixXd Xd = r.Xref.cast<double>();
-  r.cond = lambdaMax(r.M) * lambdaMax(Xd);
-  return r;
-}
+// The unit roundoffs of long double (x87, 64-bit mantissa) and double.
+constexpr double kUnitLong = 0x1.0p-64, kUnitDouble = 0x1.0p-53;
 
 }  // namespace
+
+// X_ref = M⁻¹ at q by the impulse sweeps in long double, checked against long-double
+// CRBA + Cholesky; its error estimated from the same sweeps in double.
+AccuracyReference accuracyReference(const Model& model, const Eigen::VectorXd& q) {
+  AccuracyReference r;
+  const int nv = model.nv();
+  r.M = massMatrix(model, q);
+  // The impulse sweeps in long double, from long-double kinematics and articulated inertias.
+  Kinematics<long double> kin(model, Origin::EachRoot);
+  computeKinematics<long double>(model, q.cast<long double>(), kin);
+  {
+    Articulated<long double> art(model);
+    articulatedInertias<long double>(model, kin, art);
+    r.Xref.resize(nv, nv);
+    referenceInverse<long double>(model, kin, art, r.Xref);
+  }
+  const long double ref_norm = r.Xref.norm();
+  r.cond = lambdaMax(r.M) * lambdaMax(Eigen::MatrixXd(r.Xref.cast<double>()));
+  // The check: long-double CRBA + Cholesky, an independent method whose own error is about
+  // cond₂(M)·u; a larger difference means that one of the two is wrong.
+  {
+    std::vector<Mat6<long double>> Ic(model.nb());
+    MatX<long double> Ml(nv, nv);
+    crba<long double>(model, kin, Ic, Ml);
+    Eigen::LLT<MatX<long double>> llt(Ml);
+    if (llt.info() != Eigen::Success) throw std::runtime_error("long-double Cholesky failed");
+    const MatX<long double> Xchol = llt.solve(MatX<long double>::Identity(nv, nv));
+    r.cholesky = static_cast<double>((Xchol - r.Xref).norm() / ref_norm);
+  }
+  if (!(r.cholesky <= 16 * r.cond * kUnitLong))
+    throw std::runtime_error(
+        "accuracy reference: the long-double impulse sweeps and Cholesky differ by " +
+        std::to_string(r.cholesky) +
+        ", beyond 16·cond₂(M)·u = " + std::to_string(16 * r.cond * kUnitLong));
+  // The estimate: the same sweeps in double, their error against X_ref scaled by the ratio of
+  // the unit roundoffs (2⁻¹¹).
+  {
+    Kinematics<double> kd(model, Origin::EachRoot);
+    computeKinematics<double>(model, q, kd);
+    Articulated<double> ad(model);
+    articulatedInertias<double>(model, kd, ad);
+    Eigen::MatrixXd Xd(nv, nv);
+    referenceInverse<double>(model, kd, ad, Xd);
+    const double ed = static_cast<double>((Xd.cast<long double>() - r.Xref).norm() / ref_norm);
+    r.estimate = ed * (kUnitLong / kUnitDouble);
+  }
+  return r;
+}
 
 void runAccuracySweep(const AccuracySweep& sweep, const std::string& path, std::ostream& log) {
   openblas_set_num_threads(1);
   omp_set_num_threads(1);
-  // Resumed points must have been made from the same trees as this run's.
+  // Resumed points must have been made from the same trees, and measured against the same
+  // reference, as this run's.
+  const char* reference =
+      "the impulse sweeps (core/impulse_sweeps.hpp, referenceInverse) in long double (x87 "
+      "80-bit, 64-bit mantissa), checked against long-double CRBA + Eigen::LLT";
   requireSameSettings(path, "output file",
-                      {{"experiment", "accuracy"}, {"mode", sweep.mode}, {"seed", sweep.seed}});
+                      {{"experiment", "accuracy"},
+                       {"mode", sweep.mode},
+                       {"seed", sweep.seed},
+                       {"reference", reference}});
   H5Writer h5 = H5Writer::append(path);
   h5.setAttribute("/", "experiment", "accuracy");
   h5.setAttribute("/", "mode", sweep.mode);
   h5.setAttribute("/", "seed", sweep.seed);
-  h5.setAttribute(
-      "/", "reference",
-      "long double (x87 80-bit, 64-bit mantissa) CRBA + Eigen::LLT, X_ref = LLT.solve(I)");
+  h5.setAttribute("/", "reference", reference);
   writeProvenance(h5, "/");
   h5.createGroup("points");
   h5.createGroup("problems");
@@ -113,9 +146,17 @@ void runAccuracySweep(const AccuracySweep& sweep, const std::string& path, std::
       const Eigen::VectorXd q = randomConfiguration(model, sweep.seed);
       const int nv = model.nv();
       const auto t0 = std::chrono::steady_clock::now();
-      const Reference ref = reference(model, q);
+      const AccuracyReference ref = accuracyReference(model, q);
       const double ref_s =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      {
+        char line[200];
+        std::snprintf(line, sizeof line,
+                      "%s reference: cond %.2e, own error about %.1e, Cholesky differs by %.1e "
+                      "(%.1f s)",
+                      tag, ref.cond, ref.estimate, ref.cholesky, ref_s);
+        log << line << std::endl;
+      }
       if (!h5.hasGroup(problem)) {
         const std::string g = h5.beginPoint(problem);
         h5.setAttribute(g, "topology", topo);
@@ -124,6 +165,8 @@ void runAccuracySweep(const AccuracySweep& sweep, const std::string& path, std::
         h5.setAttribute(g, "seed", sweep.seed);
         h5.setAttribute(g, "cond", ref.cond);
         h5.setAttribute(g, "reference_seconds", ref_s);
+        h5.setAttribute(g, "reference_error_estimate", ref.estimate);
+        h5.setAttribute(g, "reference_cholesky_difference", ref.cholesky);
         h5.writeIntVector(g + "/parent", model.parents());
         h5.endPoint(problem);
       }
@@ -144,6 +187,7 @@ void runAccuracySweep(const AccuracySweep& sweep, const std::string& path, std::
         h5.setAttribute(g, "n", n);
         h5.setAttribute(g, "nv", nv);
         h5.setAttribute(g, "cond", ref.cond);
+        h5.setAttribute(g, "reference_error_estimate", ref.estimate);
         char line[160];
         if (skip) {
           h5.setAttribute(g, "status", "skipped");

@@ -1,0 +1,65 @@
+// The accuracy experiment's reference (experiments/lib/accuracy.hpp): X_ref must be M⁻¹ to
+// long-double accuracy, not to double's, or the errors it reports are its own.
+//
+// Independent check: M formed in long double by CRBA (core/crba.hpp, a different algorithm
+// from the impulse sweeps that make X_ref) and the relative residual ‖M X_ref − I‖_F /
+// (‖M‖_F ‖X_ref‖_F), taken in long double. A backward-stable long-double inverse gives a small
+// fraction of u = 2⁻⁶⁴ (5.4e-20) here, 7e-22 to 2e-20; the same sweeps in double give 1e-18 to
+// 1e-17, so the bound 8u fails if any step of the reference rounds to double (checked here
+// too).
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <vector>
+
+#include "core/articulated.hpp"
+#include "core/crba.hpp"
+#include "core/impulse_sweeps.hpp"
+#include "core/kinematics.hpp"
+#include "experiments/lib/accuracy.hpp"
+#include "generators/random_tree.hpp"
+
+namespace minv {
+namespace {
+
+using LMat = Eigen::Matrix<long double, Eigen::Dynamic, Eigen::Dynamic>;
+
+// ‖M X − I‖_F / (‖M‖_F ‖X‖_F) with M by long-double CRBA at q.
+long double longDoubleResidual(const Model& model, const Eigen::VectorXd& q, const LMat& X) {
+  Kinematics<long double> kin(model, Origin::EachRoot);
+  computeKinematics<long double>(model, q.cast<long double>(), kin);
+  std::vector<Mat6<long double>> Ic(model.nb());
+  LMat M(model.nv(), model.nv());
+  crba<long double>(model, kin, Ic, M);
+  const LMat R = M * X - LMat::Identity(model.nv(), model.nv());
+  return R.norm() / (M.norm() * X.norm());
+}
+
+TEST(AccuracyReference, IsALongDoubleInverse) {
+  const long double u = 0x1.0p-64L;
+  for (Topology t : {Topology::Serial, Topology::Branched})
+    for (int n : {16, 64, 200}) {
+      const Model model = randomTree({t, n, 1, false});
+      const Eigen::VectorXd q = randomConfiguration(model, 1);
+      const AccuracyReference ref = accuracyReference(model, q);
+      const long double res = longDoubleResidual(model, q, ref.Xref);
+      std::printf(
+          "%s n=%d: residual %.2Le (bound 8u %.2Le), cond %.2e, own error about "
+          "%.1e, Cholesky differs by %.1e\n",
+          topologyName(t), n, res, 8 * u, ref.cond, ref.estimate, ref.cholesky);
+      EXPECT_LE(res, 8 * u) << topologyName(t) << " n=" << n;
+      // The bound tells precisions apart: the same sweeps in double exceed it.
+      Kinematics<double> kd(model, Origin::EachRoot);
+      computeKinematics<double>(model, q, kd);
+      Articulated<double> ad(model);
+      articulatedInertias<double>(model, kd, ad);
+      Eigen::MatrixXd Xd(model.nv(), model.nv());
+      referenceInverse<double>(model, kd, ad, Xd);
+      EXPECT_GT(longDoubleResidual(model, q, Xd.cast<long double>()), 8 * u);
+      // The independent Cholesky agrees with X_ref within its own error, cond₂(M)·u.
+      EXPECT_LE(ref.cholesky, ref.cond * static_cast<double>(u)) << topologyName(t) << " n=" << n;
+    }
+}
+
+}  // namespace
+}  // namespace minv
