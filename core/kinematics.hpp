@@ -79,10 +79,15 @@ struct Kinematics {
       c.com.template head<3>() = b.com.cast<T>();
       c.inertia.template topRows<3>() = b.inertia.cast<T>();
       if (j.type != JointType::Revolute) continue;
-      const Eigen::Matrix3d aa = j.axis * j.axis.transpose();
-      c.Pa.template topRows<3>() = (P * aa).cast<T>();
-      c.Pc.template topRows<3>() = (P * (Eigen::Matrix3d::Identity() - aa)).cast<T>();
-      c.Ps.template topRows<3>() = (P * skew<double>(j.axis)).cast<T>();
+      // The split in T's precision where T is wider than double (long double, the accuracy
+      // reference's), else in double (the counting scalar counts no constant).
+      using W = std::conditional_t<std::is_floating_point_v<T>, T, double>;
+      const Mat3<W> Pw = P.cast<W>();
+      const Vec3<W> a = j.axis.cast<W>();
+      const Mat3<W> aa = a * a.transpose();
+      c.Pa.template topRows<3>() = (Pw * aa).template cast<T>();
+      c.Pc.template topRows<3>() = (Pw * (Mat3<W>::Identity() - aa)).template cast<T>();
+      c.Ps.template topRows<3>() = (Pw * skew<W>(a)).template cast<T>();
     }
   }
 };

@@ -11,20 +11,22 @@
 // Reference: X_ref = M⁻¹ by the impulse sweeps of Algorithms 1/2 in long double (x87, 64-bit
 // mantissa, u = 2⁻⁶⁴): core/impulse_sweeps.hpp's plain referenceInverse (every column's whole
 // backward and forward sweep), on the same templated kinematics and articulated inertias
-// (core/kinematics.hpp, core/articulated.hpp) from the same q. These sweeps never form M, so
-// their error does not grow as cond₂(M)·u: the reference is three orders more accurate than
-// long-double CRBA + Cholesky at n = 2048, whose error (about cond₂(M)·u/40 there) bounded the
-// best solvers' errors while it was the reference.
-//   Check: X_chol = long-double CRBA + Eigen::LLT, an independent method; the sweep stops with
-//   an error where ‖X_chol − X_ref‖_F/‖X_ref‖_F > 16·cond₂(M)·u (X_chol's error is about
-//   cond₂(M)·u at most), and records the difference.
-//   Estimate of X_ref's own error: the same sweeps in double, their error against X_ref scaled
-//   by the ratio of the unit roundoffs, 2⁻¹¹ (the sweeps' rounding errors scale with u).
+// (core/kinematics.hpp, core/articulated.hpp) from the same q, every derived constant in long
+// double. These sweeps never form M, so their error does not grow as cond₂(M)·u as
+// long-double CRBA + Cholesky's does (5·10⁻¹² at n = 2048 serial; it was the reference before
+// 2026-12-07 and bounded the best solvers' errors at large n). Each tree's reference is checked:
+//   - precision: ‖M X_ref − I‖_F/(‖M‖_F ‖X_ref‖_F) ≤ 16u with M by long-double CRBA, an
+//     independent algorithm (the same sweeps in double leave 18u and more);
+//   - agreement: X_chol = long-double CRBA + Eigen::LLT differs from X_ref by at most
+//     16·cond₂(M)·u (X_chol's own error; this catches gross errors only);
+// and its own forward error estimated as the same sweeps' error in double scaled by the ratio
+// of the unit roundoffs, 2⁻¹¹: an estimate that assumes errors linear in u, and that misses any
+// error the two share (the model's data are doubles, exact in both).
 // cond₂(M) = λ_max(M) · λ_max(X_ref), each by 300 power iterations (a slight underestimate).
 //
 // File (HDF5, append mode, resumable): per (topology, n) a group "problems/<topology>.n<N>"
 // (attributes topology, n, nv, cond, reference_seconds, reference_error_estimate,
-// reference_cholesky_difference; dataset parent) and per solver a point
+// reference_cholesky_difference, reference_residual; dataset parent) and per solver a point
 // "points/<topology>.n<N>.<solver>" (attributes solver, topology, n, nv, residual,
 // residual_identity, error, cond, reference_error_estimate, status, skipped when skipped by the
 // skip table in timing.hpp, family "accuracy"). Root: the sweep and provenance.
@@ -47,9 +49,10 @@ struct AccuracyReference {
   double cond = 0;                                                  // cond₂(M)
   double cholesky = 0;  // ‖X_chol − X_ref‖_F/‖X_ref‖_F
   double estimate = 0;  // X_ref's own error, estimated
+  double residual = 0;  // ‖M X_ref − I‖_F/(‖M‖_F ‖X_ref‖_F), M by long-double CRBA
 };
 
-// Throws std::runtime_error where the check fails (or the long-double Cholesky does).
+// Throws std::runtime_error where a check fails (or the long-double Cholesky does).
 AccuracyReference accuracyReference(const Model& model, const Eigen::VectorXd& q);
 
 struct AccuracySweep {
