@@ -126,7 +126,8 @@ void runAccuracySweep(const AccuracySweep& sweep, const std::string& path, std::
   // reference, as this run's.
   const char* reference =
       "the impulse sweeps (core/impulse_sweeps.hpp, referenceInverse) in long double (x87 "
-      "80-bit, 64-bit mantissa), checked against long-double CRBA + Eigen::LLT";
+      "80-bit, 64-bit mantissa; every derived constant in long double), checked against M by "
+      "long-double CRBA (residual) and long-double CRBA + Eigen::LLT";
   requireSameSettings(path, "output file",
                       {{"experiment", "accuracy"},
                        {"mode", sweep.mode},
