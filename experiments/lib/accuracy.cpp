@@ -12,6 +12,7 @@
 #include <stdexcept>
 
 #include "core/articulated.hpp"
+#include "core/articulated_joint.hpp"
 #include "core/crba.hpp"
 #include "core/impulse_sweeps.hpp"
 #include "core/kinematics.hpp"
@@ -68,12 +69,14 @@ AccuracyReference accuracyReference(const Model& model, const Eigen::VectorXd& q
   AccuracyReference r;
   const int nv = model.nv();
   r.M = massMatrix(model, q);
-  // The impulse sweeps in long double, from long-double kinematics and articulated inertias.
+  // The impulse sweeps in long double, from long-double kinematics and articulated inertias
+  // about each joint's origin (core/articulated_joint.hpp).
   Kinematics<long double> kin(model, Origin::EachRoot);
   computeKinematics<long double>(model, q.cast<long double>(), kin);
   {
     Articulated<long double> art(model);
-    articulatedInertias<long double>(model, kin, art);
+    JointArticulatedWorkspace<long double> ws(model);
+    articulatedInertiasAtJoints<long double>(model, kin, art, ws);
     r.Xref.resize(nv, nv);
     referenceInverse<long double>(model, kin, art, r.Xref);
   }
@@ -113,7 +116,8 @@ AccuracyReference accuracyReference(const Model& model, const Eigen::VectorXd& q
     Kinematics<double> kd(model, Origin::EachRoot);
     computeKinematics<double>(model, q, kd);
     Articulated<double> ad(model);
-    articulatedInertias<double>(model, kd, ad);
+    JointArticulatedWorkspace<double> ws(model);
+    articulatedInertiasAtJoints<double>(model, kd, ad, ws);
     Eigen::MatrixXd Xd(nv, nv);
     referenceInverse<double>(model, kd, ad, Xd);
     const double ed = static_cast<double>((Xd.cast<long double>() - r.Xref).norm() / ref_norm);
@@ -128,8 +132,9 @@ void runAccuracySweep(const AccuracySweep& sweep, const std::string& path, std::
   // Resumed points must have been made from the same trees, and measured against the same
   // reference, as this run's.
   const char* reference =
-      "the impulse sweeps (core/impulse_sweeps.hpp, referenceInverse) in long double (x87 "
-      "80-bit, 64-bit mantissa; every derived constant in long double), checked against M by "
+      "the impulse sweeps (core/impulse_sweeps.hpp, referenceInverse) on articulated inertias "
+      "about each joint's origin (core/articulated_joint.hpp), in long double (x87 80-bit, "
+      "64-bit mantissa; every derived constant in long double), checked against M by "
       "long-double CRBA (residual) and long-double CRBA + Eigen::LLT";
   requireSameSettings(path, "output file",
                       {{"experiment", "accuracy"},

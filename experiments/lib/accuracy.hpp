@@ -10,18 +10,20 @@
 // M·X is formed in double (Eigen GEMM).
 // Reference: X_ref = M⁻¹ by the impulse sweeps of Algorithms 1/2 in long double (x87, 64-bit
 // mantissa, u = 2⁻⁶⁴): core/impulse_sweeps.hpp's plain referenceInverse (every column's whole
-// backward and forward sweep), on the same templated kinematics and articulated inertias
-// (core/kinematics.hpp, core/articulated.hpp) from the same q, every derived constant in long
-// double. These sweeps never form M, so their error does not grow as cond₂(M)·u as
-// long-double CRBA + Cholesky's does (5·10⁻¹² at n = 2048 serial; it was the reference before
-// 2026-12-07 and bounded the best solvers' errors at large n). Each tree's reference is checked:
+// backward and forward sweep), on articulated inertias taken about each joint's origin with
+// the projector form of the downdate (core/articulated_joint.hpp; not abi's world-frame pass,
+// whose rounding errors on long chains are hundreds of times larger), from the same templated
+// kinematics (core/kinematics.hpp) at the same q, every derived constant in long double. These
+// sweeps never form M, so their error does not grow as cond₂(M)·u as long-double CRBA +
+// Cholesky's does (5·10⁻¹² at n = 2048 serial; it was the reference before 2026-12-07 and
+// bounded the best solvers' errors at large n). Each tree's reference is checked:
 //   - precision: ‖M X_ref − I‖_F/(‖M‖_F ‖X_ref‖_F) ≤ 16u with M by long-double CRBA, an
-//     independent algorithm (the same sweeps in double leave 18u and more);
+//     independent algorithm (the world-frame sweeps in double leave 18u and more);
 //   - agreement: X_chol = long-double CRBA + Eigen::LLT differs from X_ref by at most
 //     16·cond₂(M)·u (X_chol's own error; this catches gross errors only);
-// and its own forward error estimated as the same sweeps' error in double scaled by the ratio
-// of the unit roundoffs, 2⁻¹¹: an estimate that assumes errors linear in u, and that misses any
-// error the two share (the model's data are doubles, exact in both).
+// and its own forward error estimated as the same pipeline's error in double scaled by the
+// ratio of the unit roundoffs, 2⁻¹¹: an estimate that assumes errors linear in u, and that
+// misses any error the two share (the model's data are doubles, exact in both).
 // cond₂(M) = λ_max(M) · λ_max(X_ref), each by 300 power iterations (a slight underestimate).
 //
 // File (HDF5, append mode, resumable): per (topology, n) a group "problems/<topology>.n<N>"
