@@ -132,6 +132,23 @@ struct SpdFactor {
   }
 };
 
+// D⁻¹ into Dinv and U D⁻¹ into UD, for a body's k columns U (any column type with + − and a
+// scalar ·): 1 / D for one DOF; else D⁻¹ from D's L Δ Lᵀ factors and U D⁻¹ by substitution with
+// them: through the explicit D⁻¹ a light body above a heavy one (D's condition 1e9) left
+// Ia S = U (1 − D⁻¹D) far from zero, and M⁻¹ of an alternating heavy/light spherical chain
+// wrong by 73 % (conformance case serial_spherical_alternating_n8).
+template <class T, int K, class Dk, class Out, class C>
+MINV_INLINE void jointInverse(const Dk& D, int k, Out&& Dinv, const C* U, C* UD) {
+  if constexpr (K == 1) {
+    Dinv(0, 0) = T(1) / D(0, 0);
+    UD[0] = U[0] * Dinv(0, 0);
+  } else {
+    const SpdFactor<T, K> F(D, k);
+    F.inverse(Dinv);
+    F.solveRight(U, UD);
+  }
+}
+
 // One body of k DOFs (K: k at compile time, or Eigen::Dynamic) at v, IA_i in columns:
 //   U_i = IA_i S_i,  D_i = S_iᵀ U_i,  D_i⁻¹,  U_i D_i⁻¹,
 // stored in art; and, for a body with a parent, its term Ia = IA_i − U_i D_i⁻¹ U_iᵀ. Each
@@ -156,21 +173,10 @@ MINV_INLINE void articulatedStep(std::integral_constant<int, K>, const Kinematic
   if constexpr (K == Eigen::Dynamic) D.resize(k, k);
   for (int c = 0; c < k; ++c)
     for (int r = 0; r < k; ++r) D(r, c) = dot(S[r], U[c]);
+  // D⁻¹ and U D⁻¹
   auto Dinv = art.Dinv[i].template topLeftCorner<K, K>(k, k);
-  if constexpr (K == 1) {
-    // D⁻¹ and U D⁻¹
-    Dinv(0, 0) = T(1) / D(0, 0);
-    UD[0] = U[0] * Dinv(0, 0);
-    art.dinv(v) = Dinv(0, 0);
-  } else {
-    // D⁻¹, and U D⁻¹ by substitution with D's factors: through the explicit D⁻¹ a light body
-    // above a heavy one (D's condition 1e9) left Ia S = U (1 − D⁻¹D) far from zero, and M⁻¹ of
-    // an alternating heavy/light spherical chain wrong by 73 % (conformance case
-    // serial_spherical_alternating_n8)
-    const SpdFactor<T, K> F(D, k);
-    F.inverse(Dinv);
-    F.solveRight(U, UD);
-  }
+  jointInverse<T, K>(D, k, Dinv, U, UD);
+  if constexpr (K == 1) art.dinv(v) = Dinv(0, 0);
   for (int j = 0; j < k; ++j) UD[j].store(art.UDinv.col(v + j).data());
   if (!parent) return;
   // Ia = IA − (U D⁻¹) Uᵀ

@@ -69,25 +69,20 @@ void articulatedInertiasAtJoints(const Model& model, const Kinematics<T>& kin, A
         S[c].template head<3>().setZero();
       U[c] = IA * S[c];
     }
-    // D = Sᵀ U, D⁻¹, and U D⁻¹ by substitution with D's factors (as articulatedStep)
+    // D = Sᵀ U, D⁻¹ and U D⁻¹ (as articulatedStep)
     Eigen::Matrix<T, 6, 6> D;
     for (int r = 0; r < k; ++r)
       for (int c = 0; c < k; ++c) D(r, c) = S[r].dot(U[c]);
     forJointSize(k, [&](auto K) {
       constexpr int N = decltype(K)::value;
-      auto Dinv = art.Dinv[i].template topLeftCorner<N, N>(k, k);
       // (Every joint type has 1, 3 or 6 DOFs.)
       if constexpr (N == Eigen::Dynamic) {
         throw std::logic_error("articulatedInertiasAtJoints: a joint of " + std::to_string(k) +
                                " DOFs");
-      } else if constexpr (N == 1) {
-        Dinv(0, 0) = T(1) / D(0, 0);
-        UD[0] = U[0] * Dinv(0, 0);
-        art.dinv(v) = Dinv(0, 0);
       } else {
-        const SpdFactor<T, N> F(D, k);
-        F.inverse(Dinv);
-        F.solveRight(U, UD);
+        auto Dinv = art.Dinv[i].template topLeftCorner<N, N>(k, k);
+        jointInverse<T, N>(D, k, Dinv, U, UD);
+        if constexpr (N == 1) art.dinv(v) = Dinv(0, 0);
       }
     });
     // U and U D⁻¹ in the world frame: a force [n; f] about p_i is [n + p_i × f; f].
