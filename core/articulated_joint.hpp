@@ -10,10 +10,11 @@
 //   - Ia = Pᵀ (IA P), P = 1 − S (U D⁻¹)ᵀ, where the world-frame pass forms IA − U D⁻¹ Uᵀ.
 // U and U D⁻¹ then go to the world frame, [n + p × f; f], for the unchanged impulse sweeps.
 // On seed-1 random chains (paper/ENGINEERING.md, "## Accuracy") the impulse sweeps' M⁻¹ from
-// this pass in double is within 1e-14 of the exact one at n = 1024, where the world-frame
-// pass's is 4e-12 off; neither change alone does it, nor P's product expanded.
+// this pass in double has a relative error of 8.8e-15 at n = 1024 serial, where the world-frame
+// pass's has 3.8e-12; neither change alone does it, nor P's product expanded.
 // Used for the accuracy experiment's reference (experiments/lib/accuracy.cpp), in long double;
-// not abi's pass (about 2× its operations, not regrouped, not vectorised).
+// not abi's pass: written with dense 6×6 products (several times the world pass's operations),
+// not regrouped, not vectorised.
 // Contract: kin from computeKinematics (its X, S; any Origin); art for the same model.
 // Cost Θ(nb); no allocation (fixed-size blocks of at most 6).
 #pragma once

@@ -63,8 +63,9 @@ constexpr double kUnitLong = 0x1.0p-64, kUnitDouble = 0x1.0p-53;
 
 }  // namespace
 
-// X_ref = M⁻¹ at q by the impulse sweeps in long double, checked against long-double
-// CRBA + Cholesky; its error estimated from the same sweeps in double.
+// X_ref = M⁻¹ at q by the impulse sweeps in long double on the pass about each joint's
+// origin, checked against M by long-double CRBA (residual) and long-double CRBA + Cholesky; its
+// error estimated from the same pipeline in double.
 AccuracyReference accuracyReference(const Model& model, const Eigen::VectorXd& q) {
   AccuracyReference r;
   const int nv = model.nv();
@@ -92,8 +93,8 @@ AccuracyReference accuracyReference(const Model& model, const Eigen::VectorXd& q
     if (llt.info() != Eigen::Success) throw std::runtime_error("long-double Cholesky failed");
     const MatX<long double> Xchol = llt.solve(MatX<long double>::Identity(nv, nv));
     r.cholesky = static_cast<double>((Xchol - r.Xref).norm() / ref_norm);
-    // The precision: X_ref's residual against this M, as of a long-double inverse (the same
-    // sweeps in double leave 1e-18 to 1e-17, 18u and more).
+    // The precision: X_ref's residual against this M, as of a long-double inverse (the
+    // world-frame sweeps in double leave 1e-18 to 1e-17, 18u and more).
     const MatX<long double> R = Ml * r.Xref - MatX<long double>::Identity(nv, nv);
     r.residual = static_cast<double>(R.norm() / (Ml.norm() * ref_norm));
   }
@@ -110,7 +111,7 @@ AccuracyReference accuracyReference(const Model& model, const Eigen::VectorXd& q
   if (!(r.cholesky <= 16 * r.cond * kUnitLong))
     fail("the difference of the long-double impulse sweeps and Cholesky", r.cholesky,
          "16·cond₂(M)·u", 16 * r.cond * kUnitLong);
-  // The estimate: the same sweeps in double, their error against X_ref scaled by the ratio of
+  // The estimate: the same pipeline in double, its error against X_ref scaled by the ratio of
   // the unit roundoffs (2⁻¹¹).
   {
     Kinematics<double> kd(model, Origin::EachRoot);
