@@ -136,7 +136,7 @@ struct SpdFactor {
 // scalar ·): 1 / D for one DOF; else D⁻¹ from D's L Δ Lᵀ factors and U D⁻¹ by substitution with
 // them: through the explicit D⁻¹ a light body above a heavy one (D's condition 1e9) left
 // Ia S = U (1 − D⁻¹D) far from zero, and M⁻¹ of an alternating heavy/light spherical chain
-// wrong by 73 % (conformance case serial_spherical_alternating_n8).
+// wrong by 73 % (conformance cases serial_spherical_alternating_{fixed,floating}_n8).
 template <class T, int K, class Dk, class Out, class C>
 MINV_INLINE void jointInverse(const Dk& D, int k, Out&& Dinv, const C* U, C* UD) {
   if constexpr (K == 1) {
