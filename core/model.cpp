@@ -159,15 +159,6 @@ void checkBody(int i, const Body& b) {
     throw ModelError(at + ": rotational inertia breaks the triangle inequality (principal " +
                      "moments " + formatNumber(e(0)) + ", " + formatNumber(e(1)) + ", " +
                      formatNumber(e(2)) + ")");
-  // A body that is a point mass to double precision: about its joint its inertia m |c|² + Ī
-  // then has directions (rotations about the centre of mass) that weigh below m |c|²'s
-  // rounding, and M, which joint motions of the body project onto, loses its positive
-  // definiteness (CI's JSON fuzzer: a 1e30 kg knee with Ī ≈ 4e-5 at 5 cm, LLT fails).
-  if (const double mc2 = b.mass * b.com.squaredNorm(); e(0) < kMinInertiaRatio * mc2)
-    throw ModelError(at + ": rotational inertia is negligible against m|c|² (smallest principal " +
-                     "moment " + formatNumber(e(0)) + ", m|c|² = " + formatNumber(mc2) +
-                     "): a point mass to double precision; give it a rotational inertia of at " +
-                     "least " + formatNumber(kMinInertiaRatio) + "·m|c|²");
 }
 
 }  // namespace
@@ -214,6 +205,37 @@ void checkJoint(int i, Joint& j, int parent) {
 
 }  // namespace
 
+namespace {
+
+// The greatest distance r from the origin of the solvers' frame at which a body's rotational
+// inertia still weighs kMinInertiaRatio · m r²: r = √(e₀ / (ratio · m)), e₀ its smallest
+// principal moment.
+double maxReach(const Body& b) {
+  return std::sqrt(smallestPrincipalMoment(b) / (kMinInertiaRatio * b.mass));
+}
+
+// A body that is a point mass to double precision where it stands: the world-aligned kernels
+// form its inertia about the origin of its tree's root body frame, whose entries m r² (r the
+// centre of mass's distance from that origin) are rounded to ε m r², and where its rotational
+// inertia is smaller than that, the directions of M that only turn the body about its centre of
+// mass weigh less than the rounding and M loses its positive definiteness. Found by CI's fuzzers:
+// a 1e30 kg knee with Ī ≈ 4e-5 at 5 cm (JSON); a 1e7 kg body with Ī = 1e-3 whose joint stands
+// 1e4 m from the root (URDF). `how` says what put it there, if not the model alone.
+void checkReach(int i, const Body& b, double r, double max_r, const std::string& how) {
+  if (r <= max_r) return;
+  const double e0 = smallestPrincipalMoment(b), mr2 = b.mass * r * r;
+  throw ModelError(
+      where(i, b.name) + ": rotational inertia is negligible against m·r², r = " + formatNumber(r) +
+      " bounding its centre of mass's distance from its tree's root body over all "
+      "joint angles" +
+      how + " (smallest principal moment " + formatNumber(e0) + ", m·r² = " + formatNumber(mr2) +
+      "): a point mass to double precision in the solvers' frame; give it a "
+      "rotational inertia of at least " +
+      formatNumber(kMinInertiaRatio) + "·m·r², or bring it closer to the root");
+}
+
+}  // namespace
+
 Model Model::create(std::vector<int> parent, std::vector<Joint> joints, std::vector<Body> bodies) {
   const int nb = static_cast<int>(parent.size());
   if (nb == 0) throw ModelError("model has no bodies (n = 0)");
@@ -232,6 +254,14 @@ Model Model::create(std::vector<int> parent, std::vector<Joint> joints, std::vec
                        " must be in [-1, " + std::to_string(i - 1) + "] (parent before child)");
     checkJoint(i, joints[i], parent[i]);
     checkBody(i, bodies[i]);
+    // Distances from the origin of the tree's root body frame, where the solvers' world-aligned
+    // frame has its origin: the joint's (whatever the angles: a placement is rigid) and the
+    // centre of mass's. The body must not be a point mass at that distance.
+    m.joint_reach_.push_back(
+        parent[i] < 0 ? 0.0 : m.joint_reach_[parent[i]] + joints[i].placement.p.norm());
+    m.max_reach_.push_back(maxReach(bodies[i]));
+    checkReach(i, bodies[i], m.joint_reach_[i] + bodies[i].com.norm(), m.max_reach_[i], "");
+    m.prismatic_ = m.prismatic_ || (joints[i].type == JointType::Prismatic && parent[i] >= 0);
     m.q_idx_[i] = m.nq_;
     m.v_idx_[i] = m.nv_;
     m.depth_[i] = parent[i] < 0 ? 1 : m.depth_[parent[i]] + 1;
@@ -367,6 +397,19 @@ void Model::checkConfiguration(const Eigen::VectorXd& q) const {
       throw ModelError("configuration of " + where(i, joints_[i].name) +
                        ": zero quaternion (norm " + formatNumber(q.segment<4>(w).norm()) +
                        ", below 1e-12)");
+  }
+  // Prismatic joints below a root move their subtrees away from it: no body may become a point
+  // mass (Model::create's rule, at the distances of this configuration).
+  if (!prismatic_) return;
+  std::vector<double> slide(nb(), 0.0);
+  for (int i = 0; i < nb(); ++i) {
+    const int parent = parent_[i];
+    if (parent < 0) continue;
+    slide[i] =
+        slide[parent] + (joints_[i].type == JointType::Prismatic ? std::abs(q(q_idx_[i])) : 0.0);
+    if (slide[i] > 0)
+      checkReach(i, bodies_[i], joint_reach_[i] + slide[i] + bodies_[i].com.norm(), max_reach_[i],
+                 " at this configuration's prismatic displacements");
   }
 }
 

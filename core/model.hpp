@@ -51,8 +51,10 @@ inline constexpr double kMaxLength = 1e4;
 // joint transform check aborted the process on angles from 1e160 on.
 inline constexpr double kMaxAngle = 1e6;
 // The smallest ratio of a body's smallest principal moment of inertia (about its centre of
-// mass) to m|c|², its mass times the squared distance of the centre of mass from the joint: a
-// body below it is a point mass to double precision, and M can lose its positive definiteness.
+// mass) to m·r², its mass times the squared distance r of the centre of mass from the origin of
+// its tree's root body frame, where the solvers' world-aligned frame has its origin (bounded over
+// all angles by the placements' lengths): a body below it is a point mass to double precision
+// there, and M can lose its positive definiteness.
 inline constexpr double kMinInertiaRatio = 1e-12;
 
 enum class JointType { Revolute, Prismatic, Spherical, Floating };
@@ -91,11 +93,11 @@ class Model {
  public:
   // Validates and builds; throws ModelError naming the first problem found: a parent after its
   // child, a non-positive or out-of-range mass, an inertia that is not symmetric positive
-  // definite or breaks the triangle inequality or is negligible against m|c|²
-  // (kMinInertiaRatio), a zero or non-finite axis, a placement that is
-  // not a rigid transform, a mass or inertia beyond kMaxPhysicalMagnitude, a length beyond
-  // kMaxLength, a name that is not valid UTF-8, two bodies or two joints with the same
-  // (non-empty) name.
+  // definite or breaks the triangle inequality or is negligible against m·r², r its centre of
+  // mass's distance from its tree's root body frame, bounded over all angles (kMinInertiaRatio),
+  // a zero or non-finite axis, a placement that is not a rigid transform, a mass or inertia beyond
+  // kMaxPhysicalMagnitude, a length beyond kMaxLength, a name that is not valid UTF-8, two bodies
+  // or two joints with the same (non-empty) name.
   static Model create(std::vector<int> parent, std::vector<Joint> joints, std::vector<Body> bodies);
 
   int nb() const { return static_cast<int>(parent_.size()); }
@@ -126,7 +128,8 @@ class Model {
   Eigen::VectorXd neutral() const;
   // Throws ModelError if q has the wrong size, a non-finite entry, a zero quaternion or one with
   // an entry beyond ±1e100 (its norm would overflow), a floating base position or a
-  // prismatic displacement beyond ±kMaxLength, or a revolute angle beyond ±kMaxAngle.
+  // prismatic displacement beyond ±kMaxLength, a revolute angle beyond ±kMaxAngle, or prismatic
+  // displacements that carry a body to where it is a point mass (see create).
   void checkConfiguration(const Eigen::VectorXd& q) const;
 
  private:
@@ -134,6 +137,10 @@ class Model {
   std::vector<Joint> joints_;
   std::vector<Body> bodies_;
   std::vector<int> q_idx_, v_idx_, nv_of_, depth_, dof_parent_, dof_body_;
+  // Per body: its joint's distance from its tree's root body frame (placements only), and the
+  // greatest distance of its centre of mass from there at which it is not a point mass.
+  std::vector<double> joint_reach_, max_reach_;
+  bool prismatic_ = false;  // a prismatic joint below a root
   int nq_ = 0, nv_ = 0;
 };
 

@@ -127,6 +127,36 @@ TEST(FuzzRegressions, ConfigurationModel) {
   EXPECT_EQ(m.nq(), 14);
   EXPECT_EQ(m.nv(), 12);
   EXPECT_EQ(fuzz::checkModel(m, "configurationModel"), "");
+  // Its slider may go to ±kMaxLength without carrying the hand to where it is a point mass
+  // (validConfiguration leaves that rule of checkConfiguration out).
+  Eigen::VectorXd q = m.neutral();
+  for (const double d : {-kMaxLength, kMaxLength}) {
+    q(m.qIdx(3)) = d;
+    EXPECT_NO_THROW(m.checkConfiguration(q));
+  }
+}
+
+// M may fail LLT only by rounding: the committed heavy tip on a straight chain (1e29 kg on two
+// 1 kg links, all joints about z along x: the tip cannot move along the chain), singular to
+// double precision, does and is excused; a well-conditioned M with a flipped diagonal is not.
+TEST(FuzzRegressions, OnlyASingularMMayFailItsFactorisation) {
+  const Model tip = loadUrdf((fs::path(MINV_SOURCE_DIR) / "tests" / "fuzz" / "regressions" /
+                              "urdf" / "heavy_tip_on_straight_chain_singular_to_double.urdf")
+                                 .string(),
+                             false);
+  const Eigen::VectorXd q0 = tip.neutral();
+  const Eigen::MatrixXd M = massMatrix(tip, q0);
+  ASSERT_NE(Eigen::LLT<Eigen::MatrixXd>(M).info(), Eigen::Success);
+  EXPECT_NE(fuzz::indefiniteByRounding(tip, q0, M).find("indefinite by rounding"),
+            std::string::npos);
+  EXPECT_EQ(fuzz::checkMassMatrix(tip, q0, M, "tip"), "");
+  const Model& m = fuzz::configurationModel();
+  const Eigen::VectorXd q = m.neutral();
+  Eigen::MatrixXd bad = massMatrix(m, q);
+  bad(4, 4) = -bad(4, 4);
+  EXPECT_EQ(fuzz::indefiniteByRounding(m, q, bad), "");
+  EXPECT_NE(fuzz::checkMassMatrix(m, q, bad, "flipped").find("not positive definite"),
+            std::string::npos);
 }
 
 }  // namespace

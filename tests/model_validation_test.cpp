@@ -127,27 +127,81 @@ TEST(ModelValidation, PhysicalRangeIsCheckedAtLoad) {
 }
 
 // A body that is a point mass to double precision (its smallest principal moment below
-// kMinInertiaRatio · m|c|²) is refused, naming the body and both numbers; just above the ratio it
-// loads and its M factorises. The fuzzer's case: 1e30 kg, Ī ≈ 4e-5, |c| = 5 cm.
+// kMinInertiaRatio · m·r², r its centre of mass's distance from the root body, bounded by the
+// placements' lengths and |c|) is refused, naming the body and the numbers; just above the ratio
+// it loads and its M factorises. The fuzzers' cases: 1e30 kg, Ī ≈ 4e-5, |c| = 5 cm (JSON); a
+// 1e7 kg body with Ī = 1e-3 on its joint, which stands 1e4 m from the root (URDF: M's diagonal
+// came out -1.2 with the old rule, which measured |c| only).
 TEST(ModelValidation, PointMassBodyIsRefused) {
-  Chain c;
+  Chain c;  // body 2's joint stands 2 from the root body's origin
   c.bodies[2].mass = 1e30;
   c.bodies[2].com = Eigen::Vector3d(0.05, 0, 0);
   c.bodies[2].inertia = Eigen::Vector3d(4e-5, 4e-5, 4e-5).asDiagonal();
-  EXPECT_NE(c.error().find("body 2 ('b2'): rotational inertia is negligible against m|c|²"),
-            std::string::npos)
+  EXPECT_NE(
+      c.error().find("body 2 ('b2'): rotational inertia is negligible against m·r², r = 2.05 "),
+      std::string::npos)
       << c.error();
-  Chain d;
-  d.bodies[2].mass = 1e30;
-  d.bodies[2].com = Eigen::Vector3d(0.05, 0, 0);
-  d.bodies[2].inertia = Eigen::Matrix3d::Identity() * (2 * kMinInertiaRatio * 1e30 * 0.0025);
-  ASSERT_EQ(d.error(), "");
-  const Model md = Model::create(d.parent, d.joints, d.bodies);
-  EXPECT_EQ(Eigen::LLT<Eigen::MatrixXd>(massMatrix(md, md.neutral())).info(), Eigen::Success);
+  // (Bent at joint 2: a straight chain of revolute joints about z cannot move its tip body
+  // along the chain, and with 1e30 kg there against 1 kg, M is singular to double precision
+  // whatever the tip's inertia.)
+  const double r2 = 2.05 * 2.05;
+  for (const double times : {0.5, 2.0}) {
+    Chain d;
+    d.joints[2].placement.p = Eigen::Vector3d(0, 1, 0);
+    d.bodies[2].mass = 1e30;
+    d.bodies[2].com = Eigen::Vector3d(0.05, 0, 0);
+    d.bodies[2].inertia = Eigen::Matrix3d::Identity() * (times * kMinInertiaRatio * 1e30 * r2);
+    if (times < 1) {
+      EXPECT_NE(d.error().find("negligible against m·r²"), std::string::npos) << d.error();
+      continue;
+    }
+    ASSERT_EQ(d.error(), "");
+    const Model md = Model::create(d.parent, d.joints, d.bodies);
+    EXPECT_EQ(Eigen::LLT<Eigen::MatrixXd>(massMatrix(md, md.neutral())).info(), Eigen::Success);
+  }
+  // The URDF fuzzer's case: the centre of mass on the joint (|c| = 0), the joint far off.
+  Chain far;
+  far.joints[2].placement.p = Eigen::Vector3d(7000, 7000, 0);
+  far.bodies[2].mass = 1e7;
+  far.bodies[2].inertia = Eigen::Matrix3d::Identity() * 1e-3;
+  EXPECT_NE(far.error().find("body 2 ('b2'): rotational inertia is negligible against m·r², r = "
+                             "9900.49"),
+            std::string::npos)
+      << far.error();
+  far.bodies[2].inertia *= 1e6;  // 1000 > 1e-12 · 1e7 · 9900.5² ≈ 980
+  ASSERT_EQ(far.error(), "");
+  const Model mf = Model::create(far.parent, far.joints, far.bodies);
+  EXPECT_EQ(Eigen::LLT<Eigen::MatrixXd>(massMatrix(mf, mf.neutral())).info(), Eigen::Success);
   Chain e;
-  e.bodies[1].inertia *= 1e-9;  // small, but far above the ratio (m = 1, |c|² = 0.25: 4e-9)
+  e.bodies[1].inertia *= 1e-9;  // small, but far above the ratio (m = 1, r² = 1.5² = 2.25)
   e.bodies[1].com = Eigen::Vector3d(0.5, 0, 0);
   EXPECT_EQ(e.error(), "");
+}
+
+// A prismatic joint carries its subtree away from the root: a configuration that carries a body
+// to where it is a point mass is refused; one short of it is accepted and M factorises.
+TEST(ModelValidation, PrismaticDisplacementMakingAPointMassIsRefused) {
+  Chain c;
+  c.joints[1].type = JointType::Prismatic;
+  c.joints[1].axis = Eigen::Vector3d::UnitX();
+  c.bodies[2].inertia = Eigen::Matrix3d::Identity() * 1e-5;  // m = 1: r ≤ √(1e-5 / 1e-12) ≈ 3162
+  ASSERT_EQ(c.error(), "");
+  const Model m = Model::create(c.parent, c.joints, c.bodies);
+  Eigen::VectorXd q = m.neutral();
+  q(1) = -3000;  // r = 2 + 3000
+  EXPECT_NO_THROW(m.checkConfiguration(q));
+  EXPECT_EQ(Eigen::LLT<Eigen::MatrixXd>(massMatrix(m, q)).info(), Eigen::Success);
+  q(1) = 5000;
+  try {
+    m.checkConfiguration(q);
+    ADD_FAILURE() << "a displacement of 5000 was accepted";
+  } catch (const ModelError& e) {
+    EXPECT_NE(std::string(e.what()).find("body 2 ('b2'): rotational inertia is negligible against "
+                                         "m·r², r = 5002 "),
+              std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find("prismatic displacements"), std::string::npos);
+  }
 }
 
 // Names must be valid UTF-8 (they travel as UTF-8 through JSON and HDF5): a stray byte, an

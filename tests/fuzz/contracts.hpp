@@ -11,17 +11,19 @@
 //   - writeJson -> readJson accepts it and reproduces it bit for bit (so it passes
 //     Model::create's validation again);
 //   - for nv ≤ kMaxCheckedNv, M = massMatrix(model, neutral) is finite, symmetric to a relative
-//     1e-12 and positive definite (Eigen's LLT succeeds).
+//     1e-12 and positive definite (Eigen's LLT succeeds), unless rounding alone makes it
+//     indefinite (indefiniteByRounding): a valid tree's M can be singular to double precision
+//     (a 1e29 kg tip on a straight chain of 1 kg links), which the loaders cannot refuse without
+//     forming M, and which the solvers report.
 // Configurations (checkConfigurationInput, on the fixed model configurationModel()): for any
 // text readConfiguration returns a q that passes checkConfiguration or throws ModelError; for
 // any vector checkConfiguration throws ModelError exactly when q breaks its spec
 // (validConfiguration below: size, finite entries, ranges, no zero quaternion); an accepted q
-// gives an M that is finite, symmetric and SPD, and equal (relative 1e-9) to M at q with its
-// quaternions normalised beforehand.
-// A different exception type or a failed check is a violation; a crash, hang, leak or
-// sanitizer report is the sanitizers' and libFuzzer's to catch. Inputs over kMaxInputBytes are
-// skipped (contract holds vacuously), and so are MJCF inputs with a <size> element (see
-// checkMjcfInput).
+// gives an M that is finite, symmetric and SPD (unless indefinite by rounding), and equal
+// (relative 1e-9) to M at q with its quaternions normalised beforehand. A different exception type
+// or a failed check is a violation; a crash, hang, leak or sanitizer report is the sanitizers' and
+// libFuzzer's to catch. Inputs over kMaxInputBytes are skipped (contract holds vacuously), and so
+// are MJCF inputs with a <size> element (see checkMjcfInput).
 //
 // Known, reported finding classes can be set aside to keep fuzzing past them: the environment
 // variable MINV_FUZZ_SKIP holds a comma-separated list of check names ("spd" skips the
@@ -34,6 +36,7 @@
 #include <cxxabi.h>
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -97,8 +100,47 @@ std::string noException(const std::string& what, F&& f) {
   }
 }
 
-// "" if M is finite, symmetric to a relative 1e-12 and SPD (Eigen's LLT), else what is wrong.
-inline std::string checkMassMatrix(const Eigen::MatrixXd& M, const std::string& what) {
+// The unit roundoff of double, and the multiple of it, times nv, within which M formed in double
+// may be off (CRBA sums over up to nv bodies; generous, so that only rounding qualifies).
+inline constexpr double kUnitRoundoff = 0x1p-53;
+inline constexpr double kRoundoffs = 1e3;
+
+// "" unless the double M at q (given) may be indefinite by the rounding of the double kernels
+// alone, then a sentence saying so. M formed in long double (the same CRBA with 11 more bits)
+// is the yardstick: the double M must lie within kRoundoffs · nv · u · (‖M‖ + Σ m r²) of it (r a
+// centre of mass's distance from the root body, where the world-aligned kernels form m r²
+// products: core/kinematics.hpp), and M's smallest eigenvalue within that difference, plus
+// LLT's own backward error, of zero. So a tree whose M is singular to double precision (a 1e29
+// kg tip on a straight chain of 1 kg links) or loses its smallest eigenvalue to the documented
+// rounding far from the root qualifies; an M wrong by more than rounding does not.
+inline std::string indefiniteByRounding(const Model& m, const Eigen::VectorXd& q,
+                                        const Eigen::MatrixXd& M) {
+  using LMat = Eigen::Matrix<long double, Eigen::Dynamic, Eigen::Dynamic>;
+  Kinematics<long double> kin(m, Origin::EachRoot);
+  computeKinematics<long double>(m, q.cast<long double>(), kin);
+  std::vector<Mat6<long double>> Ic(m.nb());
+  LMat Ml(m.nv(), m.nv());
+  crba<long double>(m, kin, Ic, Ml);
+  long double mr2 = 0;
+  for (int i = 0; i < m.nb(); ++i)
+    mr2 += m.body(i).mass *
+           (kin.X[i].p + kin.X[i].R * m.body(i).com.cast<long double>()).squaredNorm();
+  const long double diff = (M.cast<long double>() - Ml).norm(), norm = Ml.norm();
+  const long double rounding = kRoundoffs * m.nv() * kUnitRoundoff * (norm + mr2);
+  const long double low =
+      Eigen::SelfAdjointEigenSolver<LMat>(Ml, Eigen::EigenvaluesOnly).eigenvalues()(0);
+  const long double llt = 64 * m.nv() * kUnitRoundoff * norm;
+  if (!(diff <= rounding && std::abs(low) <= 4 * diff + llt)) return "";
+  return "M is indefinite by rounding (long double: λ_min = " +
+         formatNumber(static_cast<double>(low)) + "; double M off by " +
+         formatNumber(static_cast<double>(diff)) +
+         ", ‖M‖_F = " + formatNumber(static_cast<double>(norm)) + ")";
+}
+
+// "" if M = massMatrix(m, q) is finite, symmetric to a relative 1e-12 and SPD (Eigen's LLT) or
+// indefinite by rounding only (indefiniteByRounding), else what is wrong.
+inline std::string checkMassMatrix(const Model& m, const Eigen::VectorXd& q,
+                                   const Eigen::MatrixXd& M, const std::string& what) {
   if (skipped("spd")) return "";
   if (!M.allFinite()) return what + ": M is not finite";
   const double scale = M.cwiseAbs().maxCoeff();
@@ -107,10 +149,10 @@ inline std::string checkMassMatrix(const Eigen::MatrixXd& M, const std::string& 
     return what + ": M is not symmetric (|M - M^T| = " + formatNumber(asym) +
            ", max |M| = " + formatNumber(scale) + ")";
   const Eigen::LLT<Eigen::MatrixXd> llt(M);
-  if (llt.info() != Eigen::Success)
+  if (llt.info() != Eigen::Success && indefiniteByRounding(m, q, M).empty())
     return what +
            ": M is not positive definite (Eigen's LLT fails; max |M| = " + formatNumber(scale) +
-           ", min diagonal = " + formatNumber(M.diagonal().minCoeff()) + ")";
+           ", min diagonal = " + formatNumber(M.diagonal().minCoeff()) + ") by more than rounding";
   return "";
 }
 
@@ -168,8 +210,9 @@ inline std::string checkModel(const Model& m, const std::string& what) {
   }
   // M at the neutral configuration.
   if (m.nv() > kMaxCheckedNv) return "";
-  return checkMassMatrix(massMatrix(m, q0), what + " (nb = " + std::to_string(m.nb()) +
-                                                ", nv = " + std::to_string(m.nv()) + ")");
+  return checkMassMatrix(
+      m, q0, massMatrix(m, q0),
+      what + " (nb = " + std::to_string(m.nb()) + ", nv = " + std::to_string(m.nv()) + ")");
 }
 
 // Runs load(): "" if it threw ModelError or returned a valid model, else the violation.
@@ -281,7 +324,9 @@ inline const Model& configurationModel() {
 
 // The spec of checkConfiguration (core/model.hpp): right size, finite entries; a floating base's
 // position and a prismatic displacement within ±kMaxLength; a revolute angle within ±kMaxAngle;
-// quaternion entries within ±1e100 and no zero quaternion (norm < 1e-12).
+// quaternion entries within ±1e100 and no zero quaternion (norm < 1e-12). (Its rule that
+// prismatic displacements must not carry a body to where it is a point mass never applies to
+// configurationModel: the slider's hand, 0.5 kg with Ī = 0.01, is no point mass within 1e5.)
 inline bool validConfiguration(const Model& m, const Eigen::VectorXd& q) {
   if (q.size() != m.nq() || !q.allFinite()) return false;
   for (int i = 0; i < m.nb(); ++i) {
@@ -315,7 +360,7 @@ inline std::string checkAcceptedConfiguration(const Model& m, const Eigen::Vecto
                                               const std::string& what) {
   if (!validConfiguration(m, q)) return what + ": accepted a configuration that is not valid";
   const Eigen::MatrixXd M = massMatrix(m, q);
-  if (std::string e = checkMassMatrix(M, what); !e.empty()) return e;
+  if (std::string e = checkMassMatrix(m, q, M, what); !e.empty()) return e;
   if (skipped("normalised") || skipped("spd")) return "";
   const Eigen::MatrixXd Mu = massMatrix(m, normalisedQuaternions(m, q));
   const double diff = (M - Mu).cwiseAbs().maxCoeff(), scale = Mu.cwiseAbs().maxCoeff();
