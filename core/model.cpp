@@ -211,23 +211,23 @@ namespace {
 // inertia still weighs kMinInertiaRatio · m r²: r = √(e₀ / (ratio · m)), e₀ its smallest
 // principal moment.
 double maxReach(const Body& b) {
-  return std::sqrt(smallestPrincipalMoment(b) / (kMinInertiaRatio * b.mass));
+  return std::sqrt(std::max(smallestPrincipalMoment(b), 0.0) / (kMinInertiaRatio * b.mass));
 }
 
 // A body that is a point mass to double precision where it stands: the world-aligned kernels
 // form its inertia about the origin of its tree's root body frame, whose entries m r² (r the
 // centre of mass's distance from that origin) are rounded to ε m r², and where its rotational
-// inertia is smaller than that, the directions of M that only turn the body about its centre of
-// mass weigh less than the rounding and M loses its positive definiteness. Found by CI's fuzzers:
-// a 1e30 kg knee with Ī ≈ 4e-5 at 5 cm (JSON); a 1e7 kg body with Ī = 1e-3 whose joint stands
-// 1e4 m from the root (URDF). `how` says what put it there, if not the model alone.
+// inertia is not well above that, the directions of M that only turn the body about its centre
+// of mass weigh little more than the rounding and M can lose its positive definiteness. Found by
+// CI's fuzzers: a 1e30 kg knee with Ī ≈ 4e-5 at 5 cm (JSON); a 1e7 kg body with Ī = 1e-3 whose
+// joint stands 1e4 m from the root (URDF). `how` says what put it there, if not the model alone.
 void checkReach(int i, const Body& b, double r, double max_r, const std::string& how) {
-  if (r <= max_r) return;
+  if (r < max_r) return;
   const double e0 = smallestPrincipalMoment(b), mr2 = b.mass * r * r;
   throw ModelError(
       where(i, b.name) + ": rotational inertia is negligible against m·r², r = " + formatNumber(r) +
-      " bounding its centre of mass's distance from its tree's root body over all "
-      "joint angles" +
+      " bounding its centre of mass's distance from its tree's root body over all joint "
+      "angles" +
       how + " (smallest principal moment " + formatNumber(e0) + ", m·r² = " + formatNumber(mr2) +
       "): a point mass to double precision in the solvers' frame; give it a "
       "rotational inertia of at least " +
@@ -409,7 +409,7 @@ void Model::checkConfiguration(const Eigen::VectorXd& q) const {
         slide[parent] + (joints_[i].type == JointType::Prismatic ? std::abs(q(q_idx_[i])) : 0.0);
     if (slide[i] > 0)
       checkReach(i, bodies_[i], joint_reach_[i] + slide[i] + bodies_[i].com.norm(), max_reach_[i],
-                 " at this configuration's prismatic displacements");
+                 ", with this configuration's prismatic displacements");
   }
 }
 

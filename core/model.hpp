@@ -50,12 +50,14 @@ inline constexpr double kMaxLength = 1e4;
 // angle keeps too few digits below the radian to place its joint (at 1e16 none), and DART's
 // joint transform check aborted the process on angles from 1e160 on.
 inline constexpr double kMaxAngle = 1e6;
-// The smallest ratio of a body's smallest principal moment of inertia (about its centre of
+// The smallest ratio of a body's smallest principal moment of inertia e₀ (about its centre of
 // mass) to m·r², its mass times the squared distance r of the centre of mass from the origin of
-// its tree's root body frame, where the solvers' world-aligned frame has its origin (bounded over
-// all angles by the placements' lengths): a body below it is a point mass to double precision
-// there, and M can lose its positive definiteness.
-inline constexpr double kMinInertiaRatio = 1e-12;
+// its tree's root body frame, where the solvers' world-aligned frame has its origin (r bounded
+// over all angles by the placements' lengths and |c|). The kernels form m r² products there,
+// rounded by a few ε·m r²; at the ratio that is under a tenth of e₀. Below it the body is a point
+// mass to double precision, and M can lose its positive definiteness. Random trees never reach
+// it (generators/random_tree.hpp's kMaxTreeLinks).
+inline constexpr double kMinInertiaRatio = 1e-14;
 
 enum class JointType { Revolute, Prismatic, Spherical, Floating };
 

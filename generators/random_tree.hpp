@@ -91,9 +91,12 @@ struct TreeOptions {
 // could never be one.)
 std::vector<int> randomParents(Topology topology, int n, Rng& rng);
 
-// The most links a random tree may have: far beyond any research use, and well before memory
-// runs out.
-inline constexpr int kMaxTreeLinks = 1000000;
+// The most links a random tree may have: far beyond any research use (a dense M⁻¹ of 720 GB),
+// and short of where a body could be a point mass in the solvers' frame (core/model.hpp's
+// kMinInertiaRatio): placements and prismatic displacements of at most 0.5 m each put a centre
+// of mass at most 0.5 (n + 1) + 0.5 n + 0.18 ≈ 3.0e5 m from the root, and e₀ ≥ 1e-3 m allows
+// √(1e-3 / 1e-14) ≈ 3.16e5 m.
+inline constexpr int kMaxTreeLinks = 300000;
 
 // A random tree as described at the top of this file; throws ModelError for n outside
 // [1, kMaxTreeLinks].

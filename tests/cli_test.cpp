@@ -861,7 +861,7 @@ TEST_F(CliBadInput, DamagedResultFilesAreErrorsNotCrashes) {
 TEST_F(CliBadInput, HugeSizes) {
   ASSERT_EQ(minv("generate --topology serial --n 3 --out m.json").status, 0);
   expectFailure("generate --topology serial --n 2147483647 --out t.json",
-                "--n must be between 1 and 1000000, got 2147483647", "t.json");
+                "--n must be between 1 and 300000, got 2147483647", "t.json");
   expectFailure("generate --topology serial --n 99999999999 --out t.json", "out of range",
                 "t.json");
   expectFailure("generate --topology centipede --segments 100000000 --out t.json",

@@ -168,7 +168,7 @@ TEST(ModelValidation, PointMassBodyIsRefused) {
                              "9900.49"),
             std::string::npos)
       << far.error();
-  far.bodies[2].inertia *= 1e6;  // 1000 > 1e-12 · 1e7 · 9900.5² ≈ 980
+  far.bodies[2].inertia *= 1e4;  // 10 > 1e-14 · 1e7 · 9900.5² ≈ 9.8
   ASSERT_EQ(far.error(), "");
   const Model mf = Model::create(far.parent, far.joints, far.bodies);
   EXPECT_EQ(Eigen::LLT<Eigen::MatrixXd>(massMatrix(mf, mf.neutral())).info(), Eigen::Success);
@@ -184,7 +184,7 @@ TEST(ModelValidation, PrismaticDisplacementMakingAPointMassIsRefused) {
   Chain c;
   c.joints[1].type = JointType::Prismatic;
   c.joints[1].axis = Eigen::Vector3d::UnitX();
-  c.bodies[2].inertia = Eigen::Matrix3d::Identity() * 1e-5;  // m = 1: r ≤ √(1e-5 / 1e-12) ≈ 3162
+  c.bodies[2].inertia = Eigen::Matrix3d::Identity() * 1e-7;  // m = 1: r ≤ √(1e-7 / 1e-14) ≈ 3162
   ASSERT_EQ(c.error(), "");
   const Model m = Model::create(c.parent, c.joints, c.bodies);
   Eigen::VectorXd q = m.neutral();
@@ -202,6 +202,17 @@ TEST(ModelValidation, PrismaticDisplacementMakingAPointMassIsRefused) {
         << e.what();
     EXPECT_NE(std::string(e.what()).find("prismatic displacements"), std::string::npos);
   }
+  // The body's own displacement counts; the root's does not (the solvers' origin moves with it).
+  Chain own;
+  own.joints[0].type = own.joints[2].type = JointType::Prismatic;
+  own.bodies[2].inertia = Eigen::Matrix3d::Identity() * 1e-7;
+  const Model mo = Model::create(own.parent, own.joints, own.bodies);
+  Eigen::VectorXd qo = mo.neutral();
+  qo(0) = kMaxLength;
+  qo(2) = 3000;
+  EXPECT_NO_THROW(mo.checkConfiguration(qo));
+  qo(2) = -5000;
+  EXPECT_THROW(mo.checkConfiguration(qo), ModelError);
 }
 
 // Names must be valid UTF-8 (they travel as UTF-8 through JSON and HDF5): a stray byte, an
