@@ -63,13 +63,15 @@ void crba(const Model& model, const Kinematics<T>& kin, std::vector<Mat6<T>>& Ic
   crbaMassMatrix(model, kin, Ic, M);
 }
 
-// M at q in one call. It allocates: for tests, tools and references, not for timed loops.
-inline Eigen::MatrixXd massMatrix(const Model& model, const Eigen::VectorXd& q) {
-  Kinematics<double> kin(model, Origin::EachRoot);
-  computeKinematics<double>(model, q, kin);
-  std::vector<Mat6<double>> Ic(model.nb());
-  Eigen::MatrixXd M(model.nv(), model.nv());
-  crba<double>(model, kin, Ic, M);
+// M at q in one call, in T's precision (long double for references). It allocates: for tests,
+// tools and references, not for timed loops.
+template <class T = double>
+MatX<T> massMatrix(const Model& model, const Eigen::VectorXd& q) {
+  Kinematics<T> kin(model, Origin::EachRoot);
+  computeKinematics<T>(model, q.cast<T>(), kin);
+  std::vector<Mat6<T>> Ic(model.nb());
+  MatX<T> M(model.nv(), model.nv());
+  crba<T>(model, kin, Ic, M);
   return M;
 }
 

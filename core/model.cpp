@@ -203,10 +203,6 @@ void checkJoint(int i, Joint& j, int parent) {
     throw ModelError(at + ": joint placement rotation is not a rotation matrix");
 }
 
-}  // namespace
-
-namespace {
-
 // The greatest distance r from the origin of the solvers' frame at which a body's rotational
 // inertia still weighs kMinInertiaRatio · m r²: r = √(e₀ / (ratio · m)), e₀ its smallest
 // principal moment.

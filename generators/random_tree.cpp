@@ -72,9 +72,8 @@ void randomLink(Rng& rng, JointSet set, Joint& joint, Body& body) {
   for (int k = 0; k < 3; ++k) body.com(k) = rng.uniform(-0.1, 0.1);
 }
 
-// No random tree holds a point mass in the solvers' frame (core/model.hpp, kMinInertiaRatio): a
-// centre of mass lies at most 0.5 m per placement and per prismatic displacement
-// (randomConfiguration) and √3 · 0.1 m from its joint, and e₀ ≥ m (0.05² + 0.05²) / 5 = 1e-3 m.
+// kMaxTreeLinks keeps every random tree clear of the point-mass rule (random_tree.hpp): the
+// ranges above and randomConfiguration's prismatic displacements, at most 0.5 m.
 static_assert([] {
   const double r = 0.5 * (kMaxTreeLinks + 1) + 0.5 * kMaxTreeLinks + 0.18;
   return kMinInertiaRatio * r * r < 1e-3;

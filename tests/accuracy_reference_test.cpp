@@ -29,11 +29,7 @@ using LMat = Eigen::Matrix<long double, Eigen::Dynamic, Eigen::Dynamic>;
 
 // ‖M X − I‖_F / (‖M‖_F ‖X‖_F) with M by long-double CRBA at q.
 long double longDoubleResidual(const Model& model, const Eigen::VectorXd& q, const LMat& X) {
-  Kinematics<long double> kin(model, Origin::EachRoot);
-  computeKinematics<long double>(model, q.cast<long double>(), kin);
-  std::vector<Mat6<long double>> Ic(model.nb());
-  LMat M(model.nv(), model.nv());
-  crba<long double>(model, kin, Ic, M);
+  const LMat M = massMatrix<long double>(model, q);
   const LMat R = M * X - LMat::Identity(model.nv(), model.nv());
   return R.norm() / (M.norm() * X.norm());
 }

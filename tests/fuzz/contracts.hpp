@@ -116,12 +116,8 @@ inline constexpr double kRoundoffs = 1e3;
 // yardstick runs the same code, so a shared defect that makes M singular would qualify too.
 inline std::string indefiniteByRounding(const Model& m, const Eigen::VectorXd& q,
                                         const Eigen::MatrixXd& M) {
-  using LMat = Eigen::Matrix<long double, Eigen::Dynamic, Eigen::Dynamic>;
-  Kinematics<long double> kin(m, Origin::EachRoot);
-  computeKinematics<long double>(m, q.cast<long double>(), kin);
-  std::vector<Mat6<long double>> Ic(m.nb());
-  LMat Ml(m.nv(), m.nv());
-  crba<long double>(m, kin, Ic, Ml);
+  using LMat = MatX<long double>;
+  const LMat Ml = massMatrix<long double>(m, q);
   const long double diff = (M.cast<long double>() - Ml).norm(), norm = Ml.norm();
   const long double rounding = kRoundoffs * m.nv() * kUnitRoundoff * norm;
   const long double low =
