@@ -25,6 +25,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -57,12 +58,16 @@ struct Problem {
   Eigen::VectorXd q;
 };
 
+// Every benchmark's tree and q: randomTree and randomConfiguration from this seed (recorded in
+// the result file's root as `seed`).
+constexpr std::uint64_t kSeed = 1;
+
 const Problem& problem(Topology t, int n) {
   static std::map<std::pair<int, int>, std::unique_ptr<Problem>> cache;
   auto& p = cache[{static_cast<int>(t), n}];
   if (!p) {
-    Model m = randomTree({t, n, 1, false, JointSet::Revolute});
-    Eigen::VectorXd q = randomConfiguration(m, 1);
+    Model m = randomTree({t, n, kSeed, false, JointSet::Revolute});
+    Eigen::VectorXd q = randomConfiguration(m, kSeed);
     p = std::make_unique<Problem>(Problem{std::move(m), std::move(q)});
   }
   return *p;
@@ -347,6 +352,7 @@ void report(bool full, const std::string& out) {
     writeProvenance(*file);
     file->setAttribute("/", "experiment", "perf");
     file->setAttribute("/", "mode", full ? "full" : "quick");
+    file->setAttribute("/", "seed", static_cast<std::int64_t>(kSeed));
     file->setAttribute("/", "cores", pinning().summary());
     for (const auto& [name, m] : medians) {
       file->writeVector("runs/" + name + "/repetitions_s", m.reps);
@@ -550,6 +556,7 @@ int memoryRun(int n, const std::string& out) {
   H5Writer h5(out);
   writeProvenance(h5);
   h5.setAttribute("/", "experiment", "perf_memory");
+  h5.setAttribute("/", "seed", static_cast<std::int64_t>(kSeed));
   h5.writeVector("n", std::vector<double>{double(n)});
   h5.writeVector("seconds", std::vector<double>{secs});
   h5.writeVector("output_mib", std::vector<double>{out_mib});

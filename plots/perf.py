@@ -380,7 +380,16 @@ def machine_lines(f):
             f"{get('omp_max_threads')} threads (abi's two-thread runs only)",
             f"- cores at the start of the run (dependent additions per ns): {get('cores')} "
             "(experiments/lib/cores.hpp)",
-            f"- run: git {get('git_sha')}, {get('date_utc')}, mode {get('mode')}"]
+            f"- run: git {get('git_sha')}, {get('date_utc')}, mode {get('mode')}, "
+            f"trees and q from seed {seed_of(a)}"]
+
+
+def seed_of(attrs):
+    """The seed of bench_abi's trees and q: recorded since the file's `seed` attribute came in;
+    bench_abi has used seed 1 since its first version, so older files get 1 with a note."""
+    if "seed" in attrs:
+        return text(attrs["seed"])
+    return "1 (not recorded in this file; bench_abi has always used 1)"
 
 
 def versus_section(f):

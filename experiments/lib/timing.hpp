@@ -28,9 +28,11 @@
 // max_depth, m, threads, solver_threads, seed, mode, repetitions, min_time_s, status ("ok" or
 // "skipped"), skipped (the reason, only when skipped) and the measuring process's hostname,
 // cpu_model, date_utc, git_sha, blas_threads, omp_max_threads (shards may run on different
-// nodes). The root holds the sweep's description and the full provenance
-// (experiments/lib/provenance.hpp) of the latest run. A rerun skips every finished point (and
-// every recorded skip), so a killed sweep resumes where it stopped.
+// nodes; omp_max_threads is the process's OpenMP default, 1: abi's team on the `threads` family
+// is set by its own num_threads clause, and solver_threads says its size). The root holds the
+// sweep's description and the full provenance (experiments/lib/provenance.hpp) of the latest
+// run. A rerun skips every finished point (and every recorded skip), so a killed sweep resumes
+// where it stopped.
 #pragma once
 
 #include <cstdint>
