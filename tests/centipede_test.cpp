@@ -10,6 +10,7 @@
 #include <string>
 
 #include "core/kinematics.hpp"
+#include "tests/test_util.hpp"
 
 namespace minv {
 namespace {
@@ -42,6 +43,19 @@ TEST(Centipede, StandsOnItsTips) {
   for (int b : c.segment_body) EXPECT_NEAR(kin.X[b].p.z(), c.options.lower_length, 1e-15);
 }
 
+// A file in this process's own scratch folder, removed at exit: the unit tests run in shards,
+// several processes at once.
+std::string scratchFile(const std::string& name) {
+  static const struct Scratch {
+    std::filesystem::path dir = test::tempDir("centipede_test");
+    ~Scratch() {
+      std::error_code ec;
+      std::filesystem::remove_all(dir, ec);
+    }
+  } scratch;
+  return (scratch.dir / name).string();
+}
+
 std::string run(const std::string& args, int* status) {
   std::array<char, 4096> buf;
   std::string out;
@@ -53,8 +67,7 @@ std::string run(const std::string& args, int* status) {
 }
 
 TEST(CentipedeCli, GeneratePrintsTheDofCount) {
-  const std::string path =
-      (std::filesystem::temp_directory_path() / "minv_centipede_test.json").string();
+  const std::string path = scratchFile("centipede.json");
   int status = 0;
   const std::string out = run("generate --topology centipede --segments 5 --out " + path, &status);
   EXPECT_EQ(status, 0) << out;
@@ -79,7 +92,7 @@ TEST(CentipedeCli, TwentySegmentsWalkForward) {
 }
 
 TEST(CentipedeCli, SimulateErrorsAreOneLine) {
-  const std::string path = (std::filesystem::temp_directory_path() / "minv_sim_bad.h5").string();
+  const std::string path = scratchFile("sim_bad.h5");
   int status = 0;
   std::string out =
       run("simulate centipede --segments 3 --steps 5 --solver nope --out " + path, &status);
@@ -130,7 +143,7 @@ TEST(CentipedeCli, TwoThreadsWalkTheSame) {
     EXPECT_EQ(displacement(solver + " --threads 2"), displacement(solver)) << path;
   }
   // A sweep names its points on more than one thread <path>@<threads>.
-  const std::string path = (std::filesystem::temp_directory_path() / "minv_sweep_t2.h5").string();
+  const std::string path = scratchFile("sweep_t2.h5");
   std::filesystem::remove(path);
   int status = 0;
   const std::string out = run(
@@ -146,9 +159,8 @@ TEST(CentipedeCli, TwoThreadsWalkTheSame) {
 // other steps is added (scripts/reproduce adds S = 250 with fewer steps), and a file of
 // another experiment is refused.
 TEST(CentipedeCli, SweepResumesOnlyItsOwnSettings) {
-  const auto dir = std::filesystem::temp_directory_path();
-  const std::string path = (dir / "minv_sweep_resume.h5").string();
-  const std::string timing = (dir / "minv_sweep_resume_timing.h5").string();
+  const std::string path = scratchFile("sweep_resume.h5");
+  const std::string timing = scratchFile("sweep_resume_timing.h5");
   std::filesystem::remove(path);
   std::filesystem::remove(timing);
   int status = 0;

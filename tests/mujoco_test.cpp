@@ -8,6 +8,7 @@
 #include "solvers/mujoco.hpp"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
@@ -172,11 +173,12 @@ const char* kRobotXml = R"(
 </mujoco>
 )";
 
-// A file in the test's temporary directory, removed on scope exit.
+// A file in the test's temporary directory, named for this process (the unit tests run in
+// shards, several processes at once), removed on scope exit.
 struct TempFile {
   std::string path;
   TempFile(const std::string& name, const std::string& text)
-      : path(::testing::TempDir() + "/" + name) {
+      : path(::testing::TempDir() + "/" + std::to_string(::getpid()) + "_" + name) {
     std::ofstream(path) << text;
   }
   ~TempFile() { std::remove(path.c_str()); }
