@@ -273,6 +273,16 @@ def levels_section(f):
     return lines
 
 
+def lowest_speedup(f, n):
+    """The two-thread speed-up of a serial chain of n in its worst pairing of repetitions (the
+    slowest two-thread repetition against the fastest one-thread one): the figure that holds in
+    every one of the run's repetitions; 0 where the file has no raw repetitions."""
+    one, two = f.get(f"runs/inverse/serial/abi/{n}"), f.get(f"runs/inverse/serial/abi@2/{n}")
+    if one is None or two is None or "repetitions_s" not in one or "repetitions_s" not in two:
+        return 0.0
+    return float(min(one["repetitions_s"][()]) / max(two["repetitions_s"][()]))
+
+
 def at(g, name, n):
     """Dataset `name` of group g at size n (0 where the run has no such point)."""
     if g is None or name not in g:
@@ -315,7 +325,8 @@ def machines_section():
                      cell("{:.2f}", at(r, "lapack_over_abi", 32)),
                      cell("{:.1f}", pct),
                      cell("{:.1f}", pct * share * pl / sw if sw > 0 else 0)]
-            cells += [cell("{:.2f}", at(a, "abi_2thread_speedup", n)) + " / " +
+            cells += [cell("{:.2f}", at(a, "abi_2thread_speedup", n)) +
+                      cell(" (≥ {:.2f})", lowest_speedup(f, n)).replace("—", "") + " / " +
                       cell("{:.2f}", at(a, "abi_2copies_speedup", n)) for n in (512, 1024, 2048)]
             cells += [cell("{:.2f}", at(a, "abi_over_store", 4096)),
                       cell("{:.2f}", avx2 / store if store > 0 else 0)]
@@ -337,7 +348,10 @@ def machines_section():
             "last column "
             "is abi forced to its avx2 level over the store, the nearest this run has to an "
             "AVX2-only machine. Each two-thread cell is abi on 1 thread's time / abi on 2 "
-            "threads' time, then twice one alone's time / the time of two one-thread copies of "
+            "threads' time (medians; in brackets the lowest speed-up of any pairing of the "
+            "run's repetitions, the slowest two-thread one against the fastest one-thread one: "
+            "what held in every repetition), then twice one alone's time / the time of two "
+            "one-thread copies of "
             "abi run at once (each its own solver and output, one per thread): what two threads "
             "gained on that machine with nothing shared but the machine itself, the reference "
             "for the first (— where the file predates that benchmark).", "",
