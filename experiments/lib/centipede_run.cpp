@@ -126,11 +126,9 @@ void checkPathThreads(const std::string& path, int threads) {
 void checkStepping(int steps, double dt) {
   if (steps < 1)
     throw std::invalid_argument("--steps must be at least 1, got " + std::to_string(steps));
-  if (!(dt > 0) || !(dt <= 1)) {
-    char buf[80];
-    std::snprintf(buf, sizeof buf, "--dt must be a step in (0, 1] s, got %g", dt);
-    throw std::invalid_argument(buf);
-  }
+  // (the value as it round-trips: %g printed 1.0000001 as "got 1")
+  if (!(dt > 0) || !(dt <= 1))
+    throw std::invalid_argument("--dt must be a step in (0, 1] s, got " + formatNumber(dt));
 }
 
 std::string fmt(const char* f, double a, double b = 0, double c = 0, double d = 0) {

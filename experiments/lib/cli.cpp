@@ -355,6 +355,16 @@ void runSolver(const SolverEntry& e, const Model& model, const Eigen::VectorXd& 
                  "minv: warning: solver '%s': residual %.2e is far above rounding (1000 nv eps = "
                  "%.1e): its Minv is inaccurate\n",
                  e.name.c_str(), residual, rounding);
+  // A backward error at rounding, yet M·Minv not near 1 at all: an M too ill-conditioned for
+  // the solver (light and heavy bodies alternating; on ball joints M is singular to double
+  // precision), where ‖M‖·‖Minv‖ is so large that the residual above is tiny or underflows to
+  // 0. Said too: this Minv is no inverse of M.
+  else if (residual_identity >= 1)
+    std::fprintf(stderr,
+                 "minv: warning: solver '%s': |M Minv - 1|_F / sqrt(n) = %.2e: its Minv is not "
+                 "M's inverse (M is too ill-conditioned for it; its residual %.2e is only a "
+                 "backward error)\n",
+                 e.name.c_str(), residual_identity, residual);
   // Timing: median of kRepetitions runs of configure + inverse.
   std::vector<double> times;
   Eigen::MatrixXd Xt = outputMatrix(nv, nv);
@@ -674,10 +684,9 @@ int runTime(const TimeOptions& o, const std::string& program) {
   // Given values are checked, never replaced by the defaults (before the file is created).
   if (o.min_time_given) {
     if (!(o.min_time > 0) || !(o.min_time <= kMaxMinTime)) {
-      char buf[128];
-      std::snprintf(buf, sizeof buf, "--min-time must be above 0 and at most %g s, got %g",
-                    kMaxMinTime, o.min_time);
-      throw std::invalid_argument(buf);
+      throw std::invalid_argument("--min-time must be above 0 and at most " +
+                                  formatNumber(kMaxMinTime) + " s, got " +
+                                  formatNumber(o.min_time));
     }
     sweep.min_time = o.min_time;
   }
@@ -688,6 +697,12 @@ int runTime(const TimeOptions& o, const std::string& program) {
   // --solvers: only these (each must be registered).
   if (!o.solvers.empty()) {
     for (const std::string& name : o.solvers) makeSolver(name);
+    // The solvers this sweep times at all, for the message if none of those asked for is one
+    std::vector<std::string> timed;
+    for (const SweepBlock& b : sweep.blocks)
+      for (const std::string& name : b.solvers.empty() ? solverNames() : b.solvers)
+        if (!b.n.empty() && std::find(timed.begin(), timed.end(), name) == timed.end())
+          timed.push_back(name);
     for (SweepBlock& b : sweep.blocks) {
       std::vector<std::string> keep;
       const std::vector<std::string> from = b.solvers.empty() ? solverNames() : b.solvers;
@@ -696,6 +711,13 @@ int runTime(const TimeOptions& o, const std::string& program) {
           keep.push_back(name);
       if (keep.empty()) b.n.clear();  // no solver of this block was asked for
       b.solvers = keep;
+    }
+    // (an empty selection once wrote a file of no points and exited 0)
+    if (sweepPoints(sweep).empty()) {
+      std::string list;
+      for (const std::string& name : timed) list += (list.empty() ? "" : ", ") + name;
+      throw std::invalid_argument("--solvers: the " + sweep.mode +
+                                  " sweep times none of these solvers (it times " + list + ")");
     }
   }
   const Shard shard = parseShard(o.shard);

@@ -24,6 +24,10 @@ namespace {
   throw std::runtime_error("cannot " + what + " in " + file);
 }
 
+[[noreturn]] void damaged(const std::string& file, const std::string& what) {
+  throw std::runtime_error("'" + file + "' is damaged: " + what);
+}
+
 // An HDF5 iteration callback that collects the names it is shown.
 template <class Info>
 herr_t collectName(hid_t, const char* name, const Info*, void* names) {
@@ -31,16 +35,39 @@ herr_t collectName(hid_t, const char* name, const Info*, void* names) {
   return 0;
 }
 
-std::vector<std::string> childNames(hid_t group) {
+// The members of an open group of `file`, or an error (a damaged file: never a short list).
+std::vector<std::string> childNames(hid_t group, const std::string& file) {
   std::vector<std::string> names;
-  H5Literate(group, H5_INDEX_NAME, H5_ITER_INC, nullptr, collectName<H5L_info_t>, &names);
+  if (H5Literate(group, H5_INDEX_NAME, H5_ITER_INC, nullptr, collectName<H5L_info_t>, &names) < 0)
+    damaged(file, "cannot list the members of a group");
   return names;
 }
 
-std::vector<std::string> attributeNames(hid_t obj) {
+// The attributes of an open object of `file`, or an error, as childNames.
+std::vector<std::string> attributeNames(hid_t obj, const std::string& file) {
   std::vector<std::string> names;
-  H5Aiterate2(obj, H5_INDEX_NAME, H5_ITER_INC, nullptr, collectName<H5A_info_t>, &names);
+  if (H5Aiterate2(obj, H5_INDEX_NAME, H5_ITER_INC, nullptr, collectName<H5A_info_t>, &names) < 0)
+    damaged(file, "cannot list the attributes of an object");
   return names;
+}
+
+// Whether `loc` of `file` has a link `name`, or an error where the file cannot say.
+bool hasLink(hid_t loc, const char* name, const std::string& file) {
+  const htri_t has = H5Lexists(loc, name, H5P_DEFAULT);
+  if (has < 0) damaged(file, "cannot look up " + std::string(name));
+  return has > 0;
+}
+
+// Group or dataset `name` of `loc` in `file`, opened, or an error.
+hid_t openGroup(hid_t loc, const std::string& name, const std::string& file) {
+  const hid_t g = H5Gopen2(loc, name.c_str(), H5P_DEFAULT);
+  if (g < 0) damaged(file, "cannot open group " + name);
+  return g;
+}
+hid_t openDataset(hid_t loc, const std::string& name, const std::string& file) {
+  const hid_t d = H5Dopen2(loc, name.c_str(), H5P_DEFAULT);
+  if (d < 0) damaged(file, "cannot open dataset " + name);
+  return d;
 }
 
 // A scalar attribute's value: double, int64, uint64 or string.
@@ -182,20 +209,20 @@ std::vector<std::int64_t> readInts(hid_t ds, std::size_t count, const std::strin
 // `dst` through the writer.
 void copyGroup(hid_t src, H5Writer& h5, const std::string& dst, const std::string& file) {
   h5.createGroup(dst);
-  for (const std::string& a : attributeNames(src))
+  for (const std::string& a : attributeNames(src, file))
     writeAttribute(h5, dst, a, readAttribute(src, a, file));
-  for (const std::string& child : childNames(src)) {
+  for (const std::string& child : childNames(src, file)) {
     H5O_info_t info;
     if (H5Oget_info_by_name(src, child.c_str(), &info, H5P_DEFAULT) < 0)
       readFail("inspect " + child, file);
     const std::string path = dst + "/" + child;
     if (info.type == H5O_TYPE_GROUP) {
-      Hid g(H5Gopen2(src, child.c_str(), H5P_DEFAULT), H5Gclose);
+      Hid g(openGroup(src, child, file), H5Gclose);
       copyGroup(g, h5, path, file);
       continue;
     }
     if (info.type != H5O_TYPE_DATASET) continue;
-    Hid ds(H5Dopen2(src, child.c_str(), H5P_DEFAULT), H5Dclose);
+    Hid ds(openDataset(src, child, file), H5Dclose);
     Hid type(H5Dget_type(ds), H5Tclose);
     const std::vector<hsize_t> dims = datasetDims(ds);
     const std::size_t count = valueCount(dims, file);
@@ -239,7 +266,7 @@ void copyGroup(hid_t src, H5Writer& h5, const std::string& dst, const std::strin
       default:
         readFail("copy dataset " + child + " (unsupported type)", file);
     }
-    for (const std::string& a : attributeNames(ds))
+    for (const std::string& a : attributeNames(ds, file))
       writeAttribute(h5, path, a, readAttribute(ds, a, file));
   }
 }
@@ -374,17 +401,17 @@ int mergeHere(const std::vector<std::string>& inputs, const std::string& out) {
     Hid file(openReadOnly(in), H5Fclose);
     Hid root(H5Gopen2(file, "/", H5P_DEFAULT), H5Gclose);
     if (k == 0)
-      for (const std::string& a : attributeNames(root))
+      for (const std::string& a : attributeNames(root, in))
         writeAttribute(h5, "/", a, readAttribute(root, a, in));
     from += (from.empty() ? "" : ";") + in;
-    if (H5Lexists(file, "points", H5P_DEFAULT) <= 0) continue;
-    Hid points(H5Gopen2(file, "points", H5P_DEFAULT), H5Gclose);
-    for (const std::string& name : childNames(points)) {
+    if (!hasLink(file, "points", in)) continue;
+    Hid points(openGroup(file, "points", in), H5Gclose);
+    for (const std::string& name : childNames(points, in)) {
       if (endsWith(name, ".partial")) continue;  // a killed run's unfinished point
       if (!seen.insert(name).second)
         throw std::runtime_error("point '" + name + "' appears in two inputs (the second: " + in +
                                  ")");
-      Hid g(H5Gopen2(points, name.c_str(), H5P_DEFAULT), H5Gclose);
+      Hid g(openGroup(points, name, in), H5Gclose);
       copyGroup(g, h5, "points/" + name, in);
     }
   }
@@ -427,18 +454,19 @@ std::map<std::string, PointRecord> pointsHere(const std::string& path) {
   std::map<std::string, PointRecord> out;
   Hid file(openReadOnly(path), H5Fclose);
   requireTimingSweep(file, "'" + path + "'", "");
-  Hid points(H5Gopen2(file, "points", H5P_DEFAULT), H5Gclose);
-  for (const std::string& name : childNames(points)) {
+  Hid points(openGroup(file, "points", path), H5Gclose);
+  for (const std::string& name : childNames(points, path)) {
     if (endsWith(name, ".partial")) continue;
-    Hid g(H5Gopen2(points, name.c_str(), H5P_DEFAULT), H5Gclose);
+    Hid g(openGroup(points, name, path), H5Gclose);
     PointRecord rec;
-    for (const std::string& a : attributeNames(g)) rec.attrs[a] = readAttribute(g, a, path).text();
+    for (const std::string& a : attributeNames(g, path))
+      rec.attrs[a] = readAttribute(g, a, path).text();
     // The point's name is its attributes (TimingPoint::name): strings kept in the file's global
     // heap carry no checksum, and a damaged heap entry reads back as "" without an error
     requireNamedByAttributes(rec, name, path);
     for (const char* ds_name : {"real_time_s", "parent"}) {
-      if (H5Lexists(g, ds_name, H5P_DEFAULT) <= 0) continue;
-      Hid ds(H5Dopen2(g, ds_name, H5P_DEFAULT), H5Dclose);
+      if (!hasLink(g, ds_name, path)) continue;
+      Hid ds(openDataset(g, ds_name, path), H5Dclose);
       const std::size_t count = valueCount(datasetDims(ds), path);
       if (std::string(ds_name) == "real_time_s")
         rec.real_s = readDoubles(ds, count, path);
