@@ -104,6 +104,12 @@ TEST(Configuration, BadInputsNameTheProblem) {
   EXPECT_NE(message("1 2 3").find("3 numbers, the model needs nq = " + std::to_string(m.nq())),
             std::string::npos);
   EXPECT_NE(message("nope 1").find("unknown q name 'nope'"), std::string::npos);
+  // Control bytes are refused by their code (a NUL cut the quoted name short)
+  EXPECT_NE(
+      message(std::string("base_z 1\nj0\0 1", 14)).find(":2: not a text line (control byte 0x00)"),
+      std::string::npos);
+  EXPECT_NE(message("\x1b[31mred 1").find("control byte 0x1b"), std::string::npos);
+  EXPECT_EQ(message("base_z\t1\r\n"), "");
   EXPECT_NE(message("base_z 1\nbase_z 2").find("already given on line 1"), std::string::npos);
   EXPECT_NE(message("base_z nan").find("is not a finite number"), std::string::npos);
   EXPECT_NE(message("base_z 1e999").find("'1e999' is beyond the range of a double"),
