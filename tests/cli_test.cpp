@@ -349,6 +349,23 @@ TEST_F(CliBadInput, GenerateBadNames) {
   expectFailure("generate --topology serial --n 3 --seed -1 --out t.json", "--seed", "t.json");
 }
 
+// An option of the other kind of tree is refused (it was ignored without a word).
+TEST_F(CliBadInput, GenerateOptionsOfTheOtherTree) {
+  for (const char* extra : {"--n 4", "--seed 3", "--floating-base", "--joints mixed"})
+    expectFailure(
+        std::string("generate --topology centipede --segments 2 ") + extra + " --out t.json",
+        " does not apply to --topology centipede (a centipede takes --segments and "
+        "--segment-joint)",
+        "t.json");
+  for (const char* extra : {"--segments 3", "--segment-joint spherical"})
+    expectFailure(std::string("generate --topology branched --n 4 ") + extra + " --out t.json",
+                  " does not apply to --topology branched", "t.json");
+  EXPECT_EQ(minv("generate --topology centipede --segments 2 --segment-joint spherical --out "
+                 "c.json")
+                .status,
+            0);
+}
+
 TEST_F(CliBadInput, UnknownSolver) {
   ASSERT_EQ(minv("generate --topology serial --n 5 --out m.json").status, 0);
   expectFailure("solve --model m.json --solver magic --out out.h5", "unknown solver 'magic'");

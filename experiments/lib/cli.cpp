@@ -198,6 +198,7 @@ struct GenerateOptions {
   int n = 0, segments = 0;
   std::uint64_t seed = 1;
   bool floating_base = false;
+  std::vector<std::string> given;  // the options on the command line
 };
 
 struct SolveOptions {
@@ -242,7 +243,19 @@ int runGenerate(const GenerateOptions& o) {
   if (o.topology != "serial" && o.topology != "branched" && o.topology != "centipede")
     throw std::invalid_argument("unknown topology '" + o.topology +
                                 "' (expected serial, branched or centipede)");
-  if (o.topology == "centipede") {
+  // An option of the other kind of tree is refused, not ignored.
+  const bool centipede = o.topology == "centipede";
+  for (const std::string& name : o.given) {
+    const bool centipedes = name == "--segments" || name == "--segment-joint";
+    const bool random =
+        name == "--n" || name == "--seed" || name == "--floating-base" || name == "--joints";
+    if ((centipede && random) || (!centipede && centipedes))
+      throw std::invalid_argument(name + " does not apply to --topology " + o.topology + " (" +
+                                  (centipede ? "a centipede takes --segments and --segment-joint"
+                                             : "--segments and --segment-joint are a centipede's") +
+                                  ")");
+  }
+  if (centipede) {
     checkRange("--segments", o.segments, 1, kMaxSegments);
     allocating() = "a centipede of " + std::to_string(o.segments) + " segments";
     CentipedeOptions co;
@@ -950,7 +963,11 @@ int runCli(int argc, char** argv, const std::string& program) {
   tm.repetitions_given = repetitions->count() > 0;
   allocating().clear();
   try {
-    if (gen->parsed()) return runGenerate(g);
+    if (gen->parsed()) {
+      for (const CLI::Option* opt : gen->get_options())
+        if (opt->count() > 0) g.given.push_back(opt->get_name());
+      return runGenerate(g);
+    }
     if (sol->parsed()) return runSolve(s);
     if (list->parsed()) return runSolvers();
     if (chk->parsed()) return runCheck(ck);
