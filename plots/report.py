@@ -320,7 +320,7 @@ def main():
                         "CRBA + Cholesky, an independent method (within 16·cond₂(M)·u: gross "
                         f"errors only; they differ by at most {ref_chol:.0e}, the Cholesky "
                         "inverse's error, which bounded the errors of abi, dart and bullet at "
-                        "large n while it was the reference, before "
+                        "large n while it was the reference, until bf14c77 of "
                         "2026-12-07). X_ref's own error is estimated as the same sweeps' error in "
                         "double times 2⁻¹¹, which assumes errors linear in u: the column 'X_ref's "
                         f"error' (at most {ref_est:.0e} here)." + bounded + compare)
