@@ -5,6 +5,7 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
@@ -792,18 +793,18 @@ Eigen::VectorXd readConfiguration(const Model& model, std::istream& in, const st
   std::string line;
   while (std::getline(in, line)) {
     ++line_no;
-    // Text only: a control byte (a NUL cut the messages that quote the line short, an escape
-    // reached the terminal) is refused, named by its code.
+    if (const auto hash = line.find('#'); hash != std::string::npos) line.erase(hash);
+    // Text only, outside comments: a control byte other than white space (a NUL cut the
+    // messages that quote the line short, an escape reached the terminal) is refused, by code.
     for (const char ch : line) {
       const auto c = static_cast<unsigned char>(ch);
-      if ((c < 0x20 && c != '\t' && c != '\r') || c == 0x7f) {
+      if ((c < 0x20 && !std::isspace(c)) || c == 0x7f) {
         char code[8];
         std::snprintf(code, sizeof code, "0x%02x", c);
         throw ModelError(source + ":" + std::to_string(line_no) +
                          ": not a text line (control byte " + code + ")");
       }
     }
-    if (const auto hash = line.find('#'); hash != std::string::npos) line.erase(hash);
     std::istringstream tokens(line);
     std::string first;
     if (!(tokens >> first)) continue;

@@ -110,6 +110,7 @@ TEST(Configuration, BadInputsNameTheProblem) {
       std::string::npos);
   EXPECT_NE(message("\x1b[31mred 1").find("control byte 0x1b"), std::string::npos);
   EXPECT_EQ(message("base_z\t1\r\n"), "");
+  EXPECT_EQ(message("base_z\f1\v # a comment may hold anything: \x1b\n"), "");
   EXPECT_NE(message("base_z 1\nbase_z 2").find("already given on line 1"), std::string::npos);
   EXPECT_NE(message("base_z nan").find("is not a finite number"), std::string::npos);
   EXPECT_NE(message("base_z 1e999").find("'1e999' is beyond the range of a double"),

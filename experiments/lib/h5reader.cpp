@@ -58,6 +58,13 @@ bool hasLink(hid_t loc, const char* name, const std::string& file) {
   return has > 0;
 }
 
+// Whether `obj` of `file` has an attribute `name`, or an error where the file cannot say.
+bool hasAttribute(hid_t obj, const std::string& name, const std::string& file) {
+  const htri_t has = H5Aexists(obj, name.c_str());
+  if (has < 0) damaged(file, "cannot look up attribute " + name);
+  return has > 0;
+}
+
 // Group or dataset `name` of `loc` in `file`, opened, or an error.
 hid_t openGroup(hid_t loc, const std::string& name, const std::string& file) {
   const hid_t g = H5Gopen2(loc, name.c_str(), H5P_DEFAULT);
@@ -289,10 +296,13 @@ hid_t openReadOnly(const std::string& path) {
 // a group "points"), naming what it is instead: "<what> is not a timing-sweep file (…<hint>)".
 void requireTimingSweep(hid_t file, const std::string& what, const std::string& hint) {
   Hid root(H5Gopen2(file, "/", H5P_DEFAULT), H5Gclose);
-  const std::string experiment = H5Aexists(root, "experiment") > 0
-                                     ? readAttribute(root, "experiment", what).text()
-                                     : std::string();
-  if (experiment != "timing" || H5Lexists(file, "points", H5P_DEFAULT) <= 0)
+  const htri_t has_experiment = root < 0 ? -1 : H5Aexists(root, "experiment");
+  const htri_t has_points = H5Lexists(file, "points", H5P_DEFAULT);
+  if (has_experiment < 0 || has_points < 0)
+    throw std::runtime_error(what + " is damaged: cannot look up its experiment or its points");
+  const std::string experiment =
+      has_experiment > 0 ? readAttribute(root, "experiment", what).text() : std::string();
+  if (experiment != "timing" || has_points == 0)
     throw std::runtime_error(
         what + " is not a timing-sweep file (" +
         (experiment.empty() ? "no experiment attribute" : "experiment '" + experiment + "'") +
@@ -305,7 +315,7 @@ std::string differingSettings(hid_t obj, const std::vector<SweepSetting>& settin
                               const std::string& file, const std::string& label) {
   std::string differ;
   for (const SweepSetting& s : settings) {
-    if (H5Aexists(obj, s.name.c_str()) <= 0) continue;
+    if (!hasAttribute(obj, s.name, file)) continue;
     const std::string held = readAttribute(obj, s.name, file).text();
     if (held != s.text)
       differ +=
@@ -327,7 +337,7 @@ void sameSettingsHere(const std::string& path, const std::string& option,
     bool present = true;
     for (std::size_t end = object.find('/', 1); present; end = object.find('/', end + 1)) {
       const std::string prefix = object.substr(0, end);
-      present = prefix == "/" || H5Lexists(file, prefix.c_str(), H5P_DEFAULT) > 0;
+      present = prefix == "/" || hasLink(file, prefix.c_str(), path);
       if (end == std::string::npos) break;
     }
     if (!present) continue;
@@ -337,11 +347,11 @@ void sameSettingsHere(const std::string& path, const std::string& option,
     // nor any other of the sweep's settings (a `minv solve` result, any other HDF5 file) is no
     // sweep's (centipede sweeps before 1931282 held `rounds` but no experiment)
     const bool has_setting = std::any_of(settings.begin(), settings.end(), [&](const auto& s) {
-      return H5Aexists(obj, s.name.c_str()) > 0;
+      return hasAttribute(obj, s.name, path);
     });
     for (const SweepSetting& s : settings) {
       if (s.name != "experiment") continue;
-      if (H5Aexists(obj, "experiment") > 0) {
+      if (hasAttribute(obj, "experiment", path)) {
         const std::string held = readAttribute(obj, s.name, path).text();
         if (held != s.text)
           throw std::invalid_argument(option + " '" + path + "' holds experiment '" + held +
@@ -380,10 +390,10 @@ int mergeHere(const std::vector<std::string>& inputs, const std::string& out) {
                                "shard files of `minv time --shard`)");
     requireTimingSweep(file, "input file '" + in + "'",
                        "; merge joins the shard files of `minv time --shard`");
-    Hid root(H5Gopen2(file, "/", H5P_DEFAULT), H5Gclose);
+    Hid root(openGroup(file, "/", in), H5Gclose);
     if (&in == &inputs[0]) {
       for (const char* name : {"mode", "seed", "min_time_s", "repetitions"})
-        if (H5Aexists(root, name) > 0)
+        if (hasAttribute(root, name, in))
           first.emplace_back(name, readAttribute(root, name, in).text());
       continue;
     }
@@ -399,7 +409,7 @@ int mergeHere(const std::vector<std::string>& inputs, const std::string& out) {
   for (std::size_t k = 0; k < inputs.size(); ++k) {
     const std::string& in = inputs[k];
     Hid file(openReadOnly(in), H5Fclose);
-    Hid root(H5Gopen2(file, "/", H5P_DEFAULT), H5Gclose);
+    Hid root(openGroup(file, "/", in), H5Gclose);
     if (k == 0)
       for (const std::string& a : attributeNames(root, in))
         writeAttribute(h5, "/", a, readAttribute(root, a, in));
