@@ -283,6 +283,12 @@ def lowest_speedup(f, n):
     return float(min(one["repetitions_s"][()]) / max(two["repetitions_s"][()]))
 
 
+def lowest_text(f, n):
+    """lowest_speedup as " (≥ 1.61)", or nothing where the file has no repetitions."""
+    low = lowest_speedup(f, n)
+    return f" (≥ {low:.2f})" if low > 0 else ""
+
+
 def at(g, name, n):
     """Dataset `name` of group g at size n (0 where the run has no such point)."""
     if g is None or name not in g:
@@ -325,9 +331,9 @@ def machines_section():
                      cell("{:.2f}", at(r, "lapack_over_abi", 32)),
                      cell("{:.1f}", pct),
                      cell("{:.1f}", pct * share * pl / sw if sw > 0 else 0)]
-            cells += [cell("{:.2f}", at(a, "abi_2thread_speedup", n)) +
-                      cell(" (≥ {:.2f})", lowest_speedup(f, n)).replace("—", "") + " / " +
-                      cell("{:.2f}", at(a, "abi_2copies_speedup", n)) for n in (512, 1024, 2048)]
+            cells += [cell("{:.2f}", at(a, "abi_2thread_speedup", n)) + lowest_text(f, n) +
+                      " / " + cell("{:.2f}", at(a, "abi_2copies_speedup", n))
+                      for n in (512, 1024, 2048)]
             cells += [cell("{:.2f}", at(a, "abi_over_store", 4096)),
                       cell("{:.2f}", avx2 / store if store > 0 else 0)]
             rows.append("| " + " | ".join(cells) + " |")

@@ -710,18 +710,16 @@ int runTime(const TimeOptions& o, const std::string& program) {
   // --solvers: only these (each must be registered).
   if (!o.solvers.empty()) {
     for (const std::string& name : o.solvers) makeSolver(name);
-    // The solvers this sweep times at all, for the message if none of those asked for is one
-    std::vector<std::string> timed;
-    for (const SweepBlock& b : sweep.blocks)
-      for (const std::string& name : b.solvers.empty() ? solverNames() : b.solvers)
-        if (!b.n.empty() && std::find(timed.begin(), timed.end(), name) == timed.end())
-          timed.push_back(name);
+    std::vector<std::string> timed;  // what the sweep times at all, for the message below
     for (SweepBlock& b : sweep.blocks) {
       std::vector<std::string> keep;
       const std::vector<std::string> from = b.solvers.empty() ? solverNames() : b.solvers;
-      for (const std::string& name : from)
+      for (const std::string& name : from) {
+        if (!b.n.empty() && std::find(timed.begin(), timed.end(), name) == timed.end())
+          timed.push_back(name);
         if (std::find(o.solvers.begin(), o.solvers.end(), name) != o.solvers.end())
           keep.push_back(name);
+      }
       if (keep.empty()) b.n.clear();  // no solver of this block was asked for
       b.solvers = keep;
     }
